@@ -1,0 +1,70 @@
+//! The crate's error type: bad input names the value and where it came from.
+
+use thiserror::Error;
+
+/// Everything that can go wrong at the library's boundary.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum Error {
+    /// A user function (distance, size, metric) returned NaN or infinity.
+    #[error("{what} returned a non-finite value {value} at {at:?}")]
+    NonFinite {
+        /// Which function or input.
+        what: &'static str,
+        /// The bad value.
+        value: f64,
+        /// Where it was evaluated.
+        at: [f64; 3],
+    },
+    /// A non-finite or out-of-range coordinate in the input.
+    #[error("bad coordinate in {what}: {value}")]
+    BadCoordinate {
+        /// Which input.
+        what: &'static str,
+        /// The bad value.
+        value: f64,
+    },
+    /// The domain has no interior point inside the bounding box.
+    #[error("empty domain: {0}")]
+    EmptyDomain(String),
+    /// A size (h0, h(x)) that is not positive and finite.
+    #[error("bad size: {0}")]
+    BadSize(String),
+    /// A bounding box that is empty, inverted or not finite.
+    #[error("bad bounding box: {0}")]
+    BadBox(String),
+    /// The estimated element count passes the configured limit.
+    #[error("about {estimated} elements would be made, past the limit of {limit}")]
+    TooManyElements {
+        /// Estimated count.
+        estimated: u64,
+        /// The configured limit.
+        limit: u64,
+    },
+    /// Input arrays that do not describe a valid mesh.
+    #[error("invalid mesh input: {0}")]
+    InvalidMesh(String),
+    /// A file could not be read or written.
+    #[error("i/o error on {path}: {message}")]
+    Io {
+        /// The file.
+        path: String,
+        /// What the system said.
+        message: String,
+    },
+    /// A garbled or truncated file.
+    #[error("parse error in {path}, line {line}: {message}")]
+    Parse {
+        /// The file.
+        path: String,
+        /// 1-based line (0 when not line-oriented).
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// Any other invalid option.
+    #[error("invalid input: {0}")]
+    Invalid(String),
+    /// A broken internal invariant: a bug in trussmesh; please report it.
+    #[error("internal error (please report): {0}")]
+    Internal(String),
+}

@@ -1,0 +1,73 @@
+//! Implicit geometries: d(x) < 0 inside, a signed distance or any smooth level-set function.
+//!
+//! The geometry knows nothing of meshes. Closures are geometries.
+
+use glam::{DMat2, DMat3, DVec2, DVec3};
+
+/// A 2-D implicit function. `value` is negative inside.
+pub trait Implicit2: Sync + Send {
+    /// The function value at `p`.
+    fn value(&self, p: DVec2) -> f64;
+    /// The gradient; the default is a central finite difference with a step scaled to `p`.
+    fn gradient(&self, p: DVec2) -> DVec2 {
+        let h = fd_step(p.abs().max_element());
+        let dx = DVec2::new(h, 0.0);
+        let dy = DVec2::new(0.0, h);
+        DVec2::new(
+            (self.value(p + dx) - self.value(p - dx)) / (2.0 * h),
+            (self.value(p + dy) - self.value(p - dy)) / (2.0 * h),
+        )
+    }
+    /// The Hessian, if the geometry can give it (needed by second-order projections).
+    fn hessian(&self, _p: DVec2) -> Option<DMat2> {
+        None
+    }
+    /// True when `value` is a signed distance (|grad d| = 1), so that p - d grad d projects exactly.
+    fn is_distance(&self) -> bool {
+        true
+    }
+}
+
+/// A 3-D implicit function. `value` is negative inside.
+pub trait Implicit3: Sync + Send {
+    /// The function value at `p`.
+    fn value(&self, p: DVec3) -> f64;
+    /// The gradient; the default is a central finite difference with a step scaled to `p`.
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        let h = fd_step(p.abs().max_element());
+        let mut g = DVec3::ZERO;
+        for i in 0..3 {
+            let mut e = DVec3::ZERO;
+            e[i] = h;
+            g[i] = (self.value(p + e) - self.value(p - e)) / (2.0 * h);
+        }
+        g
+    }
+    /// The Hessian, if the geometry can give it.
+    fn hessian(&self, _p: DVec3) -> Option<DMat3> {
+        None
+    }
+    /// True when `value` is a signed distance.
+    fn is_distance(&self) -> bool {
+        true
+    }
+}
+
+/// Central-difference step: cube root of machine epsilon (optimal for second-order differences),
+/// scaled with the coordinate magnitude.
+#[inline]
+pub fn fd_step(scale: f64) -> f64 {
+    6.055454452393343e-6 * scale.max(1.0)
+}
+
+impl<F: Fn(DVec2) -> f64 + Sync + Send> Implicit2 for F {
+    fn value(&self, p: DVec2) -> f64 {
+        self(p)
+    }
+}
+
+impl<F: Fn(DVec3) -> f64 + Sync + Send> Implicit3 for F {
+    fn value(&self, p: DVec3) -> f64 {
+        self(p)
+    }
+}

@@ -1,0 +1,22 @@
+//! trussmesh: high-quality simplex meshes of implicit geometries.
+//!
+//! The mesh is a truss: bars push nodes apart toward lengths set by a size function h(x),
+//! nodes that leave the domain d(x) < 0 are projected back, and the connectivity is kept good
+//! by local operations (flips, splits, collapses) instead of global retriangulation
+//! (Persson's thesis, chapters 2 and 3; the "seed" in comments).
+//!
+//! Layers, bottom up: [`predicates`] and [`quality`], [`topology`] (the half-edge engine),
+//! [`geometry`] (implicit functions and projections), [`mesher`] (the pipelines), [`io`] and
+//! [`expr`] (the command line's expression language).
+#![forbid(unsafe_code)]
+#![deny(rustdoc::broken_intra_doc_links)]
+
+pub mod error;
+pub mod expr;
+pub mod geometry;
+pub mod io;
+pub mod predicates;
+pub mod quality;
+pub mod topology;
+
+pub use error::Error;
