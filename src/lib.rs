@@ -19,4 +19,7 @@ pub mod predicates;
 pub mod quality;
 pub mod topology;
 
+#[doc(hidden)]
+pub mod testing;
+
 pub use error::Error;

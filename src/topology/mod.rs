@@ -1,1 +1,68 @@
-//! Mesh topology engines.
+//! Mesh topology engines: the half-edge [`TriMesh`] for planar and surface triangles.
+//!
+//! Topology never asks for what it does not need: navigation and the combinatorial half of every
+//! operation have no bound on the point type beyond [`MeshPoint`]; geometric validity is decided
+//! by exact orientation ([`crate::predicates`]) through [`MeshPoint::orientation`].
+//!
+//! Every local operation comes as a pair: `check_*` only reads and returns a plan or a
+//! [`Refusal`]; `apply_*` only writes and cannot fail. The one-call form (`flip`, `split_edge`,
+//! ...) does both. A refused operation leaves the mesh exactly as it was.
+
+mod delaunay;
+mod queue;
+mod tri_ops;
+mod tri_validate;
+mod trimesh;
+
+pub use delaunay::hilbert_order;
+pub use queue::QualityQueue;
+pub use tri_ops::{CollapsePlan, FlipPlan, InsertPlan, SplitPlan};
+pub use tri_validate::{Invariant, InvariantViolation, Level};
+pub use trimesh::{Face, HalfEdge, HalfEdgeId, FaceId, MeshPoint, TriMesh, Vertex, VertexId, VertexTag};
+
+/// Why a local operation declined. Refusals are values, never panics; the mesh is untouched.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Refusal {
+    /// A key that does not name a live element.
+    StaleKey,
+    /// The operation would make an element with negative orientation.
+    WouldInvert,
+    /// The operation would make an element with zero area.
+    WouldDegenerate,
+    /// An edge collapse that fails the link condition (would make the mesh non-manifold).
+    LinkCondition,
+    /// The edge is on the boundary, where the operation is not allowed.
+    BoundaryEdge,
+    /// The edge separates two subdomains (an internal boundary) and may not be flipped.
+    Constrained,
+    /// The vertex's tag protects it from this operation.
+    Protected(VertexTag),
+    /// The result would repeat an existing edge.
+    DuplicateEdge,
+    /// The mesh is too small for the operation (it would vanish or pinch).
+    TooSmall,
+    /// A point that is not finite.
+    NonFinite,
+}
+
+impl std::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = match self {
+            Refusal::StaleKey => "the key names no live element",
+            Refusal::WouldInvert => "the result would hold an inverted element",
+            Refusal::WouldDegenerate => "the result would hold a zero-area element",
+            Refusal::LinkCondition => "the collapse fails the link condition",
+            Refusal::BoundaryEdge => "the edge is on the boundary",
+            Refusal::Constrained => "the edge is an internal boundary",
+            Refusal::Protected(_) => "a vertex tag protects the vertex",
+            Refusal::DuplicateEdge => "the result would repeat an existing edge",
+            Refusal::TooSmall => "the mesh is too small for the operation",
+            Refusal::NonFinite => "the point is not finite",
+        };
+        f.write_str(s)
+    }
+}
+
+impl std::error::Error for Refusal {}
+
+pub use delaunay::Location;

@@ -1,0 +1,211 @@
+//! `validate()`: every invariant of [`TriMesh`], returned as a value that names what broke where.
+
+use super::trimesh::{MeshPoint, TriMesh};
+use crate::predicates::{incircle, Sign};
+use glam::DVec2;
+use slotmap::{Key, SecondaryMap};
+
+/// How deep `validate` looks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Level {
+    /// Combinatorics only.
+    Topology,
+    /// Plus positive orientation of every face (exact).
+    Geometry,
+    /// Plus the exact in-circle test on every interior edge (planar meshes).
+    Delaunay,
+}
+
+/// A named invariant of the half-edge structure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Invariant {
+    /// A stored key names no live element.
+    DanglingKey,
+    /// twin(twin(h)) != h, or twin(h) == h.
+    TwinNotInvolution,
+    /// A half-edge and its twin do not run between the same two vertices in opposite directions.
+    TwinEndpoints,
+    /// origin(next(h)) != dest(h).
+    NextNotChained,
+    /// A face's half-edges do not form a 3-cycle on that face.
+    NextNotThreeCycle,
+    /// A face's stored half-edge does not point back to the face.
+    FaceHalfEdgeMismatch,
+    /// Both half-edges of an edge lack a face.
+    DanglingEdge,
+    /// A vertex's out half-edge does not leave it.
+    OutEdgeWrongOrigin,
+    /// A boundary vertex whose out is not its boundary half-edge.
+    OutEdgeNotBoundary,
+    /// The faces around a vertex form more than one fan.
+    NonManifoldVertex,
+    /// Two edges join the same pair of vertices.
+    DuplicateEdge,
+    /// A vertex with no edge.
+    IsolatedVertex,
+    /// A face with non-positive exact orientation.
+    InvertedFace,
+    /// An interior edge that fails the exact in-circle test.
+    NotDelaunay,
+}
+
+/// The invariant that broke and the element where it broke.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct InvariantViolation {
+    /// Which invariant.
+    pub invariant: Invariant,
+    /// Where, as a printable key.
+    pub at: String,
+}
+
+impl std::fmt::Display for InvariantViolation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "invariant {:?} broken at {}", self.invariant, self.at)
+    }
+}
+
+impl std::error::Error for InvariantViolation {}
+
+fn fail<K: Key>(invariant: Invariant, k: K) -> Result<(), InvariantViolation> {
+    Err(InvariantViolation { invariant, at: format!("{:?}", k.data()) })
+}
+
+impl<P: MeshPoint> TriMesh<P> {
+    /// Checks the invariants up to `level` (Delaunay is only meaningful for planar meshes and
+    /// is checked by [`TriMesh::validate_delaunay`]; here it implies Geometry).
+    pub fn validate(&self, level: Level) -> Result<(), InvariantViolation> {
+        use Invariant::*;
+        let he = &self.half_edges;
+        // Half-edges.
+        for (h, e) in he.iter() {
+            if !he.contains_key(e.twin) || !he.contains_key(e.next) || !self.vertices.contains_key(e.origin) {
+                return fail(DanglingKey, h);
+            }
+            if let Some(f) = e.face {
+                if !self.faces.contains_key(f) {
+                    return fail(DanglingKey, h);
+                }
+            }
+            let t = e.twin;
+            if t == h || he[t].twin != h {
+                return fail(TwinNotInvolution, h);
+            }
+            if he[t].origin == e.origin {
+                return fail(TwinEndpoints, h);
+            }
+            if he[e.next].origin != he[t].origin {
+                return fail(NextNotChained, h);
+            }
+            if e.face.is_none() && he[t].face.is_none() {
+                return fail(DanglingEdge, h);
+            }
+            if let Some(f) = e.face {
+                let n1 = e.next;
+                let n2 = he[n1].next;
+                if he[n2].next != h || he[n1].face != Some(f) || he[n2].face != Some(f) {
+                    return fail(NextNotThreeCycle, h);
+                }
+            }
+        }
+        // Faces.
+        for (f, fx) in self.faces.iter() {
+            if !he.contains_key(fx.half_edge) {
+                return fail(DanglingKey, f);
+            }
+            if he[fx.half_edge].face != Some(f) {
+                return fail(FaceHalfEdgeMismatch, f);
+            }
+        }
+        // Vertices: out pointer, one fan, no duplicate edges.
+        let mut count: SecondaryMap<_, u32> = SecondaryMap::with_capacity(self.vertices.len());
+        let mut boundary_count: SecondaryMap<_, u32> = SecondaryMap::with_capacity(self.vertices.len());
+        for (_, e) in he.iter() {
+            *count.entry(e.origin).unwrap().or_insert(0) += 1;
+            if e.face.is_none() {
+                *boundary_count.entry(e.origin).unwrap().or_insert(0) += 1;
+            }
+        }
+        for (v, vx) in self.vertices.iter() {
+            let n = count.get(v).copied().unwrap_or(0);
+            if n == 0 {
+                return fail(IsolatedVertex, v);
+            }
+            if !he.contains_key(vx.out) {
+                return fail(DanglingKey, v);
+            }
+            if he[vx.out].origin != v {
+                return fail(OutEdgeWrongOrigin, v);
+            }
+            let nb = boundary_count.get(v).copied().unwrap_or(0);
+            if nb > 1 {
+                return fail(NonManifoldVertex, v);
+            }
+            if nb == 1 && he[vx.out].face.is_some() {
+                return fail(OutEdgeNotBoundary, v);
+            }
+            // Ring walk must visit all n outgoing half-edges, each to a different vertex.
+            let mut x = vx.out;
+            let mut walked = 0u32;
+            let mut dests: smallvec::SmallVec<[_; 16]> = smallvec::SmallVec::new();
+            loop {
+                let d = self.dest(x);
+                if dests.contains(&d) {
+                    return fail(DuplicateEdge, v);
+                }
+                dests.push(d);
+                walked += 1;
+                if walked > n {
+                    return fail(NonManifoldVertex, v);
+                }
+                x = self.next(self.twin(x));
+                if he[x].origin != v {
+                    return fail(NextNotChained, v);
+                }
+                if x == vx.out {
+                    break;
+                }
+            }
+            if walked != n {
+                return fail(NonManifoldVertex, v);
+            }
+        }
+        if level >= Level::Geometry {
+            for f in self.faces.keys() {
+                if self.face_orientation(f) != Sign::Positive {
+                    return fail(InvertedFace, f);
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl TriMesh<DVec2> {
+    /// [`TriMesh::validate`] at `Geometry` plus the exact in-circle test on every interior edge
+    /// between faces of equal label (cocircular counts as Delaunay).
+    pub fn validate_delaunay(&self) -> Result<(), InvariantViolation> {
+        self.validate(Level::Geometry)?;
+        for h in self.edge_ids() {
+            if self.is_boundary_edge(h) || self.is_constrained_edge(h) {
+                continue;
+            }
+            if !self.is_locally_delaunay(h) {
+                return fail(Invariant::NotDelaunay, h);
+            }
+        }
+        Ok(())
+    }
+
+    /// Exact in-circle test of the edge of `h` (true on boundary edges).
+    pub fn is_locally_delaunay(&self, h: super::HalfEdgeId) -> bool {
+        let t = self.twin(h);
+        if self.face_of(h).is_none() || self.face_of(t).is_none() {
+            return true;
+        }
+        let a = self.pos(self.origin(h));
+        let b = self.pos(self.origin(t));
+        let c = self.pos(self.origin(self.prev(h)));
+        let d = self.pos(self.origin(self.prev(t)));
+        incircle(a, b, c, d) != Sign::Positive
+    }
+}

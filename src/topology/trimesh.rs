@@ -1,0 +1,584 @@
+//! The half-edge triangle mesh: storage and navigation.
+//!
+//! ```text
+//!            c
+//!           / ^
+//!   h.next /   \ h.next.next
+//!         v  f  \
+//!        a ----> b        h: a -> b, face f = (a, b, c) counter-clockwise (face on the left)
+//!          <----          twin(h): b -> a, face on the other side or none (boundary)
+//! ```
+//! Boundary half-edges exist and have no face; they form loops that run clockwise around the
+//! mesh (the mesh on their right). Each vertex points to one outgoing half-edge, a boundary one
+//! if the vertex is on the boundary, so one-ring walks start right.
+
+use super::Refusal;
+use crate::predicates::{orient2d, Sign};
+use glam::{DVec2, DVec3};
+use slotmap::{new_key_type, SlotMap};
+use smallvec::SmallVec;
+use std::collections::HashMap;
+
+new_key_type! {
+    /// A vertex of a [`TriMesh`].
+    pub struct VertexId;
+    /// A half-edge of a [`TriMesh`].
+    pub struct HalfEdgeId;
+    /// A face (triangle) of a [`TriMesh`].
+    pub struct FaceId;
+}
+
+/// What a vertex may do: where it may move and whether it may be removed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum VertexTag {
+    /// Free to move and to be removed.
+    #[default]
+    Interior,
+    /// On the domain boundary d = 0; moves along it; removed only along the boundary.
+    Boundary,
+    /// Never moves, never removed.
+    Fixed,
+    /// On an internal boundary curve d_I = 0; moves along it; removed only along it.
+    InternalBoundary {
+        /// Which curve.
+        curve: u32,
+    },
+}
+
+/// A point type the engine can hold: planar ([`DVec2`]) or in space ([`DVec3`]).
+pub trait MeshPoint: Copy + PartialEq + std::fmt::Debug + Send + Sync + 'static {
+    /// The point in 3-D (z = 0 for planar points).
+    fn to_3d(self) -> DVec3;
+    /// Euclidean distance.
+    fn dist(self, other: Self) -> f64;
+    /// Linear interpolation a + t (b - a).
+    fn lerp_to(self, other: Self, t: f64) -> Self;
+    /// True when every coordinate is finite.
+    fn finite(self) -> bool;
+    /// The exact orientation of triangle (a, b, c). Planar points: exact orient2d. Points in
+    /// space have no global orientation: `Zero` when the triangle is exactly degenerate (its
+    /// cross product vanishes), else `Positive`; surface meshers check folds with normals.
+    fn orientation(a: Self, b: Self, c: Self) -> Sign;
+}
+
+impl MeshPoint for DVec2 {
+    #[inline]
+    fn to_3d(self) -> DVec3 {
+        self.extend(0.0)
+    }
+    #[inline]
+    fn dist(self, other: Self) -> f64 {
+        self.distance(other)
+    }
+    #[inline]
+    fn lerp_to(self, other: Self, t: f64) -> Self {
+        self + (other - self) * t
+    }
+    #[inline]
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+    #[inline]
+    fn orientation(a: Self, b: Self, c: Self) -> Sign {
+        orient2d(a, b, c)
+    }
+}
+
+impl MeshPoint for DVec3 {
+    #[inline]
+    fn to_3d(self) -> DVec3 {
+        self
+    }
+    #[inline]
+    fn dist(self, other: Self) -> f64 {
+        self.distance(other)
+    }
+    #[inline]
+    fn lerp_to(self, other: Self, t: f64) -> Self {
+        self + (other - self) * t
+    }
+    #[inline]
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+    fn orientation(a: Self, b: Self, c: Self) -> Sign {
+        // Exactly degenerate when all three coordinate-plane projections are collinear.
+        let xy = orient2d(DVec2::new(a.x, a.y), DVec2::new(b.x, b.y), DVec2::new(c.x, c.y));
+        let yz = orient2d(DVec2::new(a.y, a.z), DVec2::new(b.y, b.z), DVec2::new(c.y, c.z));
+        let zx = orient2d(DVec2::new(a.z, a.x), DVec2::new(b.z, b.x), DVec2::new(c.z, c.x));
+        if xy == Sign::Zero && yz == Sign::Zero && zx == Sign::Zero {
+            Sign::Zero
+        } else {
+            Sign::Positive
+        }
+    }
+}
+
+/// A vertex record.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Vertex<P> {
+    /// Position.
+    pub pos: P,
+    /// One outgoing half-edge; a boundary one when the vertex is on the boundary.
+    pub out: HalfEdgeId,
+    /// What the vertex may do.
+    pub tag: VertexTag,
+}
+
+/// A half-edge record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HalfEdge {
+    /// The vertex it leaves.
+    pub origin: VertexId,
+    /// The opposite half-edge of the same edge.
+    pub twin: HalfEdgeId,
+    /// The next half-edge around the face (or the boundary loop).
+    pub next: HalfEdgeId,
+    /// The face on its left, none on the boundary.
+    pub face: Option<FaceId>,
+}
+
+/// A face record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Face {
+    /// One of its three half-edges.
+    pub half_edge: HalfEdgeId,
+    /// Subdomain label; an edge between faces of different labels is an internal boundary.
+    pub label: u32,
+}
+
+/// A half-edge triangle mesh over planar or spatial points, in slotmap arenas.
+#[derive(Clone, Debug)]
+pub struct TriMesh<P> {
+    pub(crate) vertices: SlotMap<VertexId, Vertex<P>>,
+    pub(crate) half_edges: SlotMap<HalfEdgeId, HalfEdge>,
+    pub(crate) faces: SlotMap<FaceId, Face>,
+}
+
+impl<P: MeshPoint> PartialEq for TriMesh<P> {
+    /// Equal when every arena holds the same keys (with versions) and records in the same order.
+    fn eq(&self, other: &Self) -> bool {
+        self.vertices.len() == other.vertices.len()
+            && self.half_edges.len() == other.half_edges.len()
+            && self.faces.len() == other.faces.len()
+            && self.vertices.iter().zip(other.vertices.iter()).all(|(a, b)| a == b)
+            && self.half_edges.iter().zip(other.half_edges.iter()).all(|(a, b)| a == b)
+            && self.faces.iter().zip(other.faces.iter()).all(|(a, b)| a == b)
+    }
+}
+
+impl<P: MeshPoint> Default for TriMesh<P> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<P: MeshPoint> TriMesh<P> {
+    /// An empty mesh.
+    pub fn new() -> Self {
+        TriMesh { vertices: SlotMap::with_key(), half_edges: SlotMap::with_key(), faces: SlotMap::with_key() }
+    }
+
+    /// An empty mesh with room for about `n` vertices.
+    pub fn with_capacity(n: usize) -> Self {
+        TriMesh {
+            vertices: SlotMap::with_capacity_and_key(n),
+            half_edges: SlotMap::with_capacity_and_key(6 * n + 6),
+            faces: SlotMap::with_capacity_and_key(2 * n + 2),
+        }
+    }
+
+    // ----- counts -----
+
+    /// Number of vertices.
+    pub fn num_vertices(&self) -> usize {
+        self.vertices.len()
+    }
+    /// Number of faces.
+    pub fn num_faces(&self) -> usize {
+        self.faces.len()
+    }
+    /// Number of edges.
+    pub fn num_edges(&self) -> usize {
+        self.half_edges.len() / 2
+    }
+    /// Euler characteristic V - E + F.
+    pub fn euler_characteristic(&self) -> i64 {
+        self.num_vertices() as i64 - self.num_edges() as i64 + self.num_faces() as i64
+    }
+
+    // ----- element access -----
+
+    /// The vertex record (panics on a stale key, like indexing).
+    #[inline]
+    pub fn vertex(&self, v: VertexId) -> &Vertex<P> {
+        &self.vertices[v]
+    }
+    /// The half-edge record.
+    #[inline]
+    pub fn half_edge(&self, h: HalfEdgeId) -> &HalfEdge {
+        &self.half_edges[h]
+    }
+    /// The face record.
+    #[inline]
+    pub fn face(&self, f: FaceId) -> &Face {
+        &self.faces[f]
+    }
+    /// Whether the key names a live vertex.
+    pub fn contains_vertex(&self, v: VertexId) -> bool {
+        self.vertices.contains_key(v)
+    }
+    /// Whether the key names a live half-edge.
+    pub fn contains_half_edge(&self, h: HalfEdgeId) -> bool {
+        self.half_edges.contains_key(h)
+    }
+    /// Whether the key names a live face.
+    pub fn contains_face(&self, f: FaceId) -> bool {
+        self.faces.contains_key(f)
+    }
+    /// Position of a vertex.
+    #[inline]
+    pub fn pos(&self, v: VertexId) -> P {
+        self.vertices[v].pos
+    }
+    /// Tag of a vertex.
+    #[inline]
+    pub fn tag(&self, v: VertexId) -> VertexTag {
+        self.vertices[v].tag
+    }
+    /// Sets the tag of a vertex (tags carry no topological invariant).
+    pub fn set_tag(&mut self, v: VertexId, tag: VertexTag) {
+        self.vertices[v].tag = tag;
+    }
+    /// Sets the subdomain label of a face.
+    pub fn set_label(&mut self, f: FaceId, label: u32) {
+        self.faces[f].label = label;
+    }
+    /// Moves a vertex without any check. Callers that need validity use `relocate`.
+    pub fn set_pos_unchecked(&mut self, v: VertexId, p: P) {
+        self.vertices[v].pos = p;
+    }
+
+    /// Iterator over vertex keys.
+    pub fn vertex_ids(&self) -> impl Iterator<Item = VertexId> + '_ {
+        self.vertices.keys()
+    }
+    /// Iterator over face keys.
+    pub fn face_ids(&self) -> impl Iterator<Item = FaceId> + '_ {
+        self.faces.keys()
+    }
+    /// Iterator over half-edge keys.
+    pub fn half_edge_ids(&self) -> impl Iterator<Item = HalfEdgeId> + '_ {
+        self.half_edges.keys()
+    }
+    /// One half-edge per edge (the one with the smaller key).
+    pub fn edge_ids(&self) -> impl Iterator<Item = HalfEdgeId> + '_ {
+        self.half_edges.iter().filter(|(h, e)| *h < e.twin).map(|(h, _)| h)
+    }
+    /// Iterator over (key, vertex).
+    pub fn vertices(&self) -> impl Iterator<Item = (VertexId, &Vertex<P>)> + '_ {
+        self.vertices.iter()
+    }
+
+    // ----- navigation -----
+
+    /// The opposite half-edge.
+    #[inline]
+    pub fn twin(&self, h: HalfEdgeId) -> HalfEdgeId {
+        self.half_edges[h].twin
+    }
+    /// The next half-edge around the face or boundary loop.
+    #[inline]
+    pub fn next(&self, h: HalfEdgeId) -> HalfEdgeId {
+        self.half_edges[h].next
+    }
+    /// The previous half-edge: two steps on a face, a walk around the origin on the boundary.
+    pub fn prev(&self, h: HalfEdgeId) -> HalfEdgeId {
+        if self.half_edges[h].face.is_some() {
+            return self.next(self.next(h));
+        }
+        // The incoming half-edge of origin(h) whose next is h: rotate around the origin.
+        let mut x = h;
+        loop {
+            let t = self.twin(x);
+            if self.next(t) == h {
+                return t;
+            }
+            x = self.next(t);
+            debug_assert!(x != h, "prev: broken boundary loop");
+            if x == h {
+                return t;
+            }
+        }
+    }
+    /// The vertex a half-edge leaves.
+    #[inline]
+    pub fn origin(&self, h: HalfEdgeId) -> VertexId {
+        self.half_edges[h].origin
+    }
+    /// The vertex a half-edge reaches.
+    #[inline]
+    pub fn dest(&self, h: HalfEdgeId) -> VertexId {
+        self.half_edges[self.half_edges[h].twin].origin
+    }
+    /// The face on the left of a half-edge.
+    #[inline]
+    pub fn face_of(&self, h: HalfEdgeId) -> Option<FaceId> {
+        self.half_edges[h].face
+    }
+    /// True when the half-edge has no face.
+    #[inline]
+    pub fn is_boundary_half_edge(&self, h: HalfEdgeId) -> bool {
+        self.half_edges[h].face.is_none()
+    }
+    /// True when either side of the edge has no face.
+    #[inline]
+    pub fn is_boundary_edge(&self, h: HalfEdgeId) -> bool {
+        self.half_edges[h].face.is_none() || self.half_edges[self.half_edges[h].twin].face.is_none()
+    }
+    /// True when the edge separates faces of different labels (an internal boundary).
+    pub fn is_constrained_edge(&self, h: HalfEdgeId) -> bool {
+        match (self.half_edges[h].face, self.half_edges[self.twin(h)].face) {
+            (Some(a), Some(b)) => self.faces[a].label != self.faces[b].label,
+            _ => false,
+        }
+    }
+    /// True when the vertex lies on the boundary.
+    #[inline]
+    pub fn is_boundary_vertex(&self, v: VertexId) -> bool {
+        self.half_edges[self.vertices[v].out].face.is_none()
+    }
+    /// The three half-edges of a face, starting from its stored one.
+    #[inline]
+    pub fn face_half_edges(&self, f: FaceId) -> [HalfEdgeId; 3] {
+        let h0 = self.faces[f].half_edge;
+        let h1 = self.half_edges[h0].next;
+        let h2 = self.half_edges[h1].next;
+        [h0, h1, h2]
+    }
+    /// The three vertices of a face, counter-clockwise.
+    #[inline]
+    pub fn face_vertices(&self, f: FaceId) -> [VertexId; 3] {
+        let [a, b, c] = self.face_half_edges(f);
+        [self.origin(a), self.origin(b), self.origin(c)]
+    }
+    /// The three positions of a face.
+    #[inline]
+    pub fn face_points(&self, f: FaceId) -> [P; 3] {
+        let [a, b, c] = self.face_vertices(f);
+        [self.pos(a), self.pos(b), self.pos(c)]
+    }
+    /// The outgoing half-edges of `v`, in clockwise order, starting at its `out`.
+    pub fn outgoing(&self, v: VertexId) -> SmallVec<[HalfEdgeId; 8]> {
+        let start = self.vertices[v].out;
+        let mut out = SmallVec::new();
+        let mut h = start;
+        loop {
+            out.push(h);
+            h = self.next(self.twin(h));
+            if h == start || out.len() > self.half_edges.len() {
+                break;
+            }
+        }
+        out
+    }
+    /// The one-ring neighbours of `v`.
+    pub fn neighbours(&self, v: VertexId) -> SmallVec<[VertexId; 8]> {
+        self.outgoing(v).into_iter().map(|h| self.dest(h)).collect()
+    }
+    /// The faces around `v`.
+    pub fn vertex_faces(&self, v: VertexId) -> SmallVec<[FaceId; 8]> {
+        self.outgoing(v).into_iter().filter_map(|h| self.face_of(h)).collect()
+    }
+    /// Number of edges at `v`.
+    pub fn valence(&self, v: VertexId) -> usize {
+        self.outgoing(v).len()
+    }
+    /// The half-edge a -> b, if the edge exists.
+    pub fn find_half_edge(&self, a: VertexId, b: VertexId) -> Option<HalfEdgeId> {
+        let start = self.vertices.get(a)?.out;
+        let mut h = start;
+        let mut steps = 0;
+        loop {
+            if self.dest(h) == b {
+                return Some(h);
+            }
+            h = self.next(self.twin(h));
+            steps += 1;
+            if h == start || steps > self.half_edges.len() {
+                return None;
+            }
+        }
+    }
+    /// Every boundary loop as a list of half-edges in loop order.
+    pub fn boundary_loops(&self) -> Vec<Vec<HalfEdgeId>> {
+        let mut seen = slotmap::SecondaryMap::new();
+        let mut loops = Vec::new();
+        for (h, e) in self.half_edges.iter() {
+            if e.face.is_some() || seen.contains_key(h) {
+                continue;
+            }
+            let mut lp = Vec::new();
+            let mut x = h;
+            while !seen.contains_key(x) {
+                seen.insert(x, ());
+                lp.push(x);
+                x = self.next(x);
+            }
+            loops.push(lp);
+        }
+        loops
+    }
+    /// Length of the edge of `h`.
+    pub fn edge_length(&self, h: HalfEdgeId) -> f64 {
+        self.pos(self.origin(h)).dist(self.pos(self.dest(h)))
+    }
+    /// Quality q = 2 r_in / r_out of a face.
+    pub fn face_quality(&self, f: FaceId) -> f64 {
+        let [a, b, c] = self.face_points(f);
+        crate::quality::triangle_q_from_lengths(b.dist(c), c.dist(a), a.dist(b))
+    }
+    /// Exact orientation of a face.
+    pub fn face_orientation(&self, f: FaceId) -> Sign {
+        let [a, b, c] = self.face_points(f);
+        P::orientation(a, b, c)
+    }
+
+    // ----- construction -----
+
+    /// Builds a mesh from points and counter-clockwise triangles (indices into `points`).
+    /// Every point must be used; the result must be manifold. Returns the mesh and the vertex
+    /// key of each point.
+    pub fn from_arrays(points: &[P], triangles: &[[usize; 3]]) -> Result<(Self, Vec<VertexId>), crate::Error> {
+        use crate::Error::InvalidMesh;
+        let mut m = TriMesh::with_capacity(points.len());
+        let mut ids = Vec::with_capacity(points.len());
+        for (i, &p) in points.iter().enumerate() {
+            if !p.finite() {
+                return Err(InvalidMesh(format!("point {i} is not finite")));
+            }
+            ids.push(m.vertices.insert(Vertex { pos: p, out: HalfEdgeId::default(), tag: VertexTag::Interior }));
+        }
+        let mut used = vec![false; points.len()];
+        let mut edge_map: HashMap<(usize, usize), HalfEdgeId> = HashMap::with_capacity(triangles.len() * 3);
+        // Insertion order, so that the result never depends on hash iteration order.
+        let mut listed: Vec<(usize, usize, HalfEdgeId)> = Vec::with_capacity(triangles.len() * 3);
+        for (ti, t) in triangles.iter().enumerate() {
+            for &i in t {
+                if i >= points.len() {
+                    return Err(InvalidMesh(format!("triangle {ti} refers to point {i}, past the {} points", points.len())));
+                }
+                used[i] = true;
+            }
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                return Err(InvalidMesh(format!("triangle {ti} repeats a vertex")));
+            }
+            let f = m.faces.insert(Face { half_edge: HalfEdgeId::default(), label: 0 });
+            let mut hs = [HalfEdgeId::default(); 3];
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                if edge_map.contains_key(&(a, b)) {
+                    return Err(InvalidMesh(format!(
+                        "edge {a}-{b} is used twice in the same direction (triangle {ti}): inconsistent orientation or non-manifold"
+                    )));
+                }
+                let h = m.half_edges.insert(HalfEdge {
+                    origin: ids[a],
+                    twin: HalfEdgeId::default(),
+                    next: HalfEdgeId::default(),
+                    face: Some(f),
+                });
+                edge_map.insert((a, b), h);
+                listed.push((a, b, h));
+                hs[k] = h;
+            }
+            for k in 0..3 {
+                m.half_edges[hs[k]].next = hs[(k + 1) % 3];
+            }
+            m.faces[f].half_edge = hs[0];
+        }
+        if let Some(i) = used.iter().position(|u| !u) {
+            return Err(InvalidMesh(format!("point {i} is used by no triangle")));
+        }
+        // Twins; create boundary half-edges where the opposite side is missing.
+        let mut boundary: Vec<HalfEdgeId> = Vec::new();
+        for &(a, b, h) in listed.iter() {
+            if let Some(&t) = edge_map.get(&(b, a)) {
+                m.half_edges[h].twin = t;
+            } else {
+                let t = m.half_edges.insert(HalfEdge { origin: ids[b], twin: h, next: HalfEdgeId::default(), face: None });
+                m.half_edges[h].twin = t;
+                boundary.push(t);
+            }
+        }
+        // Vertex outs: boundary half-edges first (a vertex with two is non-manifold).
+        let mut has_boundary_out = vec![false; points.len()];
+        let mut index_of = slotmap::SecondaryMap::with_capacity(ids.len());
+        for (i, &v) in ids.iter().enumerate() {
+            index_of.insert(v, i);
+        }
+        for &b in &boundary {
+            let v = m.half_edges[b].origin;
+            let i = index_of[v];
+            if has_boundary_out[i] {
+                return Err(InvalidMesh(format!("point {i} is a non-manifold boundary vertex (two boundary fans)")));
+            }
+            has_boundary_out[i] = true;
+            m.vertices[v].out = b;
+        }
+        for b in boundary.iter().copied() {
+            let dest = m.dest(b);
+            m.half_edges[b].next = m.vertices[dest].out;
+        }
+        for &(a, _, h) in listed.iter() {
+            if !has_boundary_out[a] {
+                m.vertices[ids[a]].out = h;
+            }
+        }
+        // Manifold check: the ring walk from out must visit every outgoing half-edge.
+        let mut count = vec![0usize; points.len()];
+        for &(a, _, _) in listed.iter() {
+            count[a] += 1;
+        }
+        for &b in &boundary {
+            count[index_of[m.half_edges[b].origin]] += 1;
+        }
+        for (i, &v) in ids.iter().enumerate() {
+            if m.outgoing(v).len() != count[i] {
+                return Err(InvalidMesh(format!("point {i} is a non-manifold vertex (its triangles form several fans)")));
+            }
+        }
+        Ok((m, ids))
+    }
+
+    /// Compacted arrays: the points, the counter-clockwise triangles, the face labels, and the
+    /// vertex key of each point.
+    pub fn to_arrays(&self) -> (Vec<P>, Vec<[usize; 3]>, Vec<u32>, Vec<VertexId>) {
+        let mut index = slotmap::SecondaryMap::with_capacity(self.vertices.len());
+        let mut points = Vec::with_capacity(self.vertices.len());
+        let mut keys = Vec::with_capacity(self.vertices.len());
+        for (v, vx) in self.vertices.iter() {
+            index.insert(v, points.len());
+            points.push(vx.pos);
+            keys.push(v);
+        }
+        let mut tris = Vec::with_capacity(self.faces.len());
+        let mut labels = Vec::with_capacity(self.faces.len());
+        for (f, fx) in self.faces.iter() {
+            let [a, b, c] = self.face_vertices(f);
+            tris.push([index[a], index[b], index[c]]);
+            labels.push(fx.label);
+        }
+        (points, tris, labels, keys)
+    }
+
+    /// Checks that a key is live, as a refusal.
+    #[inline]
+    pub(crate) fn live_he(&self, h: HalfEdgeId) -> Result<(), Refusal> {
+        if self.half_edges.contains_key(h) {
+            Ok(())
+        } else {
+            Err(Refusal::StaleKey)
+        }
+    }
+}

@@ -1,0 +1,302 @@
+//! The half-edge engine: exact topology after each operation on named fixtures, property tests
+//! over random operation sequences, the fuzz corpus, and the spade Delaunay oracle.
+
+use glam::DVec2;
+use proptest::prelude::*;
+use trussmesh::testing::{self, apply_op, check_ops, grid, random_points, single_triangle, two_triangles, vertex_onering, Op};
+use trussmesh::topology::{Level, Refusal, TriMesh, VertexTag};
+
+fn edge(m: &TriMesh<DVec2>, a: usize, b: usize) -> trussmesh::topology::HalfEdgeId {
+    let ids: Vec<_> = m.vertex_ids().collect();
+    m.find_half_edge(ids[a], ids[b]).expect("edge exists")
+}
+
+#[test]
+fn flip_two_triangles() {
+    let mut m = two_triangles();
+    let h = edge(&m, 0, 1);
+    m.flip(h).unwrap();
+    m.validate(Level::Geometry).unwrap();
+    let ids: Vec<_> = m.vertex_ids().collect();
+    assert!(m.find_half_edge(ids[0], ids[1]).is_none());
+    assert!(m.find_half_edge(ids[2], ids[3]).is_some());
+    assert_eq!((m.num_vertices(), m.num_edges(), m.num_faces()), (4, 5, 2));
+    // Flipping back restores the diagonal.
+    m.flip(h).unwrap();
+    assert!(m.find_half_edge(ids[0], ids[1]).is_some());
+}
+
+#[test]
+fn flip_refusals() {
+    let mut m = single_triangle();
+    let h = edge(&m, 0, 1);
+    assert_eq!(m.flip(h), Err(Refusal::BoundaryEdge));
+    // A non-convex quad: flipping would invert.
+    let p = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(-0.5, 0.3), DVec2::new(-0.5, -0.3)];
+    let (mut m, _) = TriMesh::from_arrays(&p, &[[0, 1, 2], [1, 0, 3]]).unwrap();
+    let before = m.clone();
+    let h = edge(&m, 0, 1);
+    assert_eq!(m.flip(h), Err(Refusal::WouldInvert));
+    assert!(m == before);
+    // Collinear: a, c, d on a line makes a zero-area triangle.
+    let p = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0), DVec2::new(0.0, -1.0)];
+    let (mut m, _) = TriMesh::from_arrays(&p, &[[0, 1, 2], [1, 0, 3]]).unwrap();
+    let h = edge(&m, 0, 1);
+    assert_eq!(m.flip(h), Err(Refusal::WouldDegenerate));
+    // Different labels: an internal boundary.
+    let mut m = two_triangles();
+    let f = m.face_ids().next().unwrap();
+    m.set_label(f, 7);
+    let h = edge(&m, 0, 1);
+    assert_eq!(m.flip(h), Err(Refusal::Constrained));
+}
+
+#[test]
+fn split_interior_and_boundary() {
+    let mut m = two_triangles();
+    let h = edge(&m, 0, 1);
+    let v = m.split_edge(h, DVec2::new(0.5, 0.0)).unwrap();
+    m.validate(Level::Geometry).unwrap();
+    assert_eq!((m.num_vertices(), m.num_faces()), (5, 4));
+    assert_eq!(m.valence(v), 4);
+    assert_eq!(m.tag(v), VertexTag::Interior);
+    assert!(!m.is_boundary_vertex(v));
+
+    let mut m = single_triangle();
+    let h = edge(&m, 1, 2);
+    let v = m.split_edge(h, DVec2::new(0.65, 0.4)).unwrap();
+    m.validate(Level::Geometry).unwrap();
+    assert_eq!((m.num_vertices(), m.num_faces(), m.num_edges()), (4, 2, 5));
+    assert_eq!(m.tag(v), VertexTag::Boundary);
+    assert!(m.is_boundary_vertex(v));
+    assert_eq!(m.boundary_loops()[0].len(), 4);
+    // The boundary twin direction too.
+    let mut m = single_triangle();
+    let h = m.twin(edge(&m, 1, 2));
+    m.split_edge(h, DVec2::new(0.65, 0.4)).unwrap();
+    m.validate(Level::Geometry).unwrap();
+    // A split point off the edge that would invert is refused.
+    let mut m = single_triangle();
+    let before = m.clone();
+    let h = edge(&m, 0, 1);
+    assert_eq!(m.split_edge(h, DVec2::new(0.5, 2.0)), Err(Refusal::WouldInvert));
+    assert!(m == before);
+}
+
+#[test]
+fn collapse_interior_vertex_of_onering() {
+    let mut m = vertex_onering(6);
+    let ids: Vec<_> = m.vertex_ids().collect();
+    let h = m.find_half_edge(ids[0], ids[1]).unwrap();
+    let b = m.collapse(h, m.pos(ids[1])).unwrap();
+    m.validate(Level::Geometry).unwrap();
+    assert_eq!(b, ids[1]);
+    assert_eq!((m.num_vertices(), m.num_faces()), (6, 4));
+    assert_eq!(m.euler_characteristic(), 1);
+}
+
+#[test]
+fn collapse_refusals() {
+    // Boundary vertex into interior vertex: protected.
+    let mut m = vertex_onering(6);
+    let ids: Vec<_> = m.vertex_ids().collect();
+    for &v in &ids[1..] {
+        m.set_tag(v, VertexTag::Boundary);
+    }
+    let h = m.find_half_edge(ids[1], ids[0]).unwrap();
+    assert_eq!(m.collapse(h, m.pos(ids[0])), Err(Refusal::Protected(VertexTag::Boundary)));
+    // Fixed vertex never goes.
+    m.set_tag(ids[0], VertexTag::Fixed);
+    let h = m.find_half_edge(ids[0], ids[1]).unwrap();
+    assert_eq!(m.collapse(h, m.pos(ids[1])), Err(Refusal::Protected(VertexTag::Fixed)));
+    // Valence-3 ring: collapsing the centre along one spoke fails the link condition? No: it
+    // leaves one triangle; collapsing a boundary edge of a lone triangle is too small.
+    let mut m = single_triangle();
+    let h = edge(&m, 0, 1);
+    let before = m.clone();
+    assert_eq!(m.collapse(h, m.pos(m.dest(h))), Err(Refusal::TooSmall));
+    assert!(m == before);
+    // Interior edge joining two boundary vertices pinches.
+    let mut m = grid(2, 1, 0.0, 1);
+    let before = m.clone();
+    let mut refused = 0;
+    for h in m.half_edge_ids().collect::<Vec<_>>() {
+        if !m.is_boundary_edge(h) {
+            assert_eq!(m.check_collapse(h, m.pos(m.dest(h))).err(), Some(Refusal::LinkCondition));
+            refused += 1;
+        }
+    }
+    assert!(refused > 0);
+    assert!(m == before);
+}
+
+#[test]
+fn collapse_along_boundary() {
+    let mut m = grid(3, 3, 0.0, 1);
+    for v in m.vertex_ids().collect::<Vec<_>>() {
+        if m.is_boundary_vertex(v) {
+            m.set_tag(v, VertexTag::Boundary);
+        }
+    }
+    // Collapse a boundary edge between two non-corner boundary vertices on the bottom side.
+    let ids: Vec<_> = m.vertex_ids().collect();
+    let h = m.find_half_edge(ids[1], ids[2]).unwrap();
+    let target = m.pos(ids[2]);
+    m.collapse(h, target).unwrap();
+    m.validate(Level::Geometry).unwrap();
+    assert_eq!(m.num_vertices(), 15);
+    assert_eq!(m.boundary_loops().len(), 1);
+    assert_eq!(m.boundary_loops()[0].len(), 11);
+}
+
+#[test]
+fn insert_and_relocate() {
+    let mut m = single_triangle();
+    let f = m.face_ids().next().unwrap();
+    let v = m.insert_in_face(f, DVec2::new(0.4, 0.3)).unwrap();
+    m.validate(Level::Geometry).unwrap();
+    assert_eq!((m.num_vertices(), m.num_faces(), m.valence(v)), (4, 3, 3));
+    assert_eq!(m.relocate(v, DVec2::new(0.45, 0.25)), Ok(()));
+    let before = m.clone();
+    assert_eq!(m.relocate(v, DVec2::new(5.0, 5.0)), Err(Refusal::WouldInvert));
+    assert_eq!(m.relocate(v, DVec2::new(f64::NAN, 0.0)), Err(Refusal::NonFinite));
+    assert!(m == before);
+    let f = m.face_ids().next().unwrap();
+    assert!(matches!(m.insert_in_face(f, DVec2::new(50.0, 1.0)), Err(Refusal::WouldInvert | Refusal::WouldDegenerate)));
+    assert!(m == before);
+}
+
+#[test]
+fn arrays_round_trip() {
+    let m = grid(4, 3, 0.2, 3);
+    let (p, t, labels, _) = m.to_arrays();
+    assert_eq!(labels.len(), t.len());
+    let (m2, _) = TriMesh::from_arrays(&p, &t).unwrap();
+    assert_eq!(m2.to_arrays().1, t);
+    assert_eq!(m2.euler_characteristic(), 1);
+    // Bad arrays are typed errors.
+    assert!(TriMesh::from_arrays(&p, &[[0, 1, 99]]).is_err());
+    assert!(TriMesh::<DVec2>::from_arrays(&p[..3], &[[0, 1, 1]]).is_err());
+    assert!(TriMesh::from_arrays(&p[..4], &[[0, 1, 2]]).is_err()); // unused point 3
+    let bowtie = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0), DVec2::new(-1.0, 0.0), DVec2::new(0.0, -1.0)];
+    assert!(TriMesh::from_arrays(&bowtie, &[[0, 1, 2], [0, 3, 4]]).is_err());
+}
+
+#[test]
+fn lawson_flips_reach_delaunay() {
+    let mut m = grid(8, 8, 0.35, 11);
+    assert!(m.validate_delaunay().is_err(), "the jittered grid starts non-Delaunay");
+    let flips = m.make_delaunay();
+    assert!(flips > 0);
+    m.validate_delaunay().unwrap();
+}
+
+#[test]
+fn replay_fuzz_corpus() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/trimesh_ops");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let data = std::fs::read(e.unwrap().path()).unwrap();
+        testing::run_ops(&data);
+        n += 1;
+    }
+    assert!(n >= 10, "corpus has {n} files");
+}
+
+#[test]
+fn deterministic_random_sequences() {
+    // Thousands of random sequences, deterministic so failures reproduce.
+    let mut r = testing::Rng::new(testing::SEED);
+    for round in 0..1500 {
+        let len = 10 + (r.next_u64() % 300) as usize;
+        let data: Vec<u8> = (0..len).map(|_| r.next_u64() as u8).collect();
+        let result = std::panic::catch_unwind(|| testing::run_ops(&data));
+        assert!(result.is_ok(), "round {round} failed; bytes {data:?}");
+    }
+}
+
+fn op_strategy() -> impl Strategy<Value = Op> {
+    prop_oneof![
+        any::<u16>().prop_map(Op::Flip),
+        (any::<u16>(), any::<u8>()).prop_map(|(k, t)| Op::Split(k, t)),
+        (any::<u16>(), any::<u8>()).prop_map(|(k, t)| Op::Collapse(k, t)),
+        (any::<u16>(), any::<u8>(), any::<u8>()).prop_map(|(k, u, v)| Op::Insert(k, u, v)),
+        (any::<u16>(), any::<i8>(), any::<i8>()).prop_map(|(k, x, y)| Op::Relocate(k, x, y)),
+        Just(Op::Delaunay),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_ops_keep_mesh_valid(n in 3usize..60, seed in any::<u64>(), ops in proptest::collection::vec(op_strategy(), 1..120)) {
+        let (mut m, _) = TriMesh::delaunay(&random_points(n, seed)).unwrap();
+        m.validate(Level::Geometry).unwrap();
+        check_ops(&mut m, &ops);
+    }
+
+    #[test]
+    fn random_ops_on_grids(nx in 1usize..6, ny in 1usize..6, seed in any::<u64>(), ops in proptest::collection::vec(op_strategy(), 1..120)) {
+        let mut m = grid(nx, ny, 0.3, seed);
+        check_ops(&mut m, &ops);
+        // Split-only growth then Delaunay keeps the Delaunay invariant.
+        let _ = apply_op(&mut m, Op::Delaunay);
+        m.validate_delaunay().unwrap();
+    }
+}
+
+fn spade_edges(points: &[DVec2]) -> std::collections::BTreeSet<(u64, u64, u64, u64)> {
+    use spade::{DelaunayTriangulation, Point2, Triangulation};
+    let pts: Vec<Point2<f64>> = points.iter().map(|p| Point2::new(p.x, p.y)).collect();
+    let t = DelaunayTriangulation::<Point2<f64>>::bulk_load(pts).unwrap();
+    t.undirected_edges()
+        .map(|e| {
+            let [a, b] = e.positions();
+            key(DVec2::new(a.x, a.y), DVec2::new(b.x, b.y))
+        })
+        .collect()
+}
+
+fn key(a: DVec2, b: DVec2) -> (u64, u64, u64, u64) {
+    let (a, b) = if (a.x, a.y) < (b.x, b.y) { (a, b) } else { (b, a) };
+    (a.x.to_bits(), a.y.to_bits(), b.x.to_bits(), b.y.to_bits())
+}
+
+#[test]
+fn delaunay_matches_spade() {
+    for (i, &n) in [100usize, 1000, 10_000, 100_000].iter().enumerate() {
+        let pts = random_points(n, testing::SEED + i as u64);
+        let (m, _) = TriMesh::delaunay(&pts).unwrap();
+        if n <= 10_000 {
+            m.validate_delaunay().unwrap();
+        } else {
+            m.validate(Level::Topology).unwrap();
+        }
+        let ours: std::collections::BTreeSet<_> = m.edge_ids().map(|h| key(m.pos(m.origin(h)), m.pos(m.dest(h)))).collect();
+        let theirs = spade_edges(&pts);
+        println!("n = {n}: {} edges, spade {}", ours.len(), theirs.len());
+        assert_eq!(ours.len(), theirs.len(), "edge count differs for n = {n}");
+        assert!(ours == theirs, "edge sets differ for n = {n}");
+        assert_eq!(m.num_vertices(), n);
+    }
+}
+
+#[test]
+fn delaunay_on_grid_points_and_duplicates() {
+    // Cocircular grid points and duplicates: still a valid Delaunay triangulation of the hull.
+    let mut pts = Vec::new();
+    for j in 0..20 {
+        for i in 0..20 {
+            pts.push(DVec2::new(i as f64, j as f64));
+        }
+    }
+    pts.push(DVec2::new(3.0, 3.0));
+    let (m, ids) = TriMesh::delaunay(&pts).unwrap();
+    m.validate_delaunay().unwrap();
+    assert_eq!(m.num_vertices(), 400);
+    assert_eq!(ids[400], ids[3 * 20 + 3]);
+    assert_eq!(m.num_faces(), 2 * 19 * 19);
+    assert!(TriMesh::delaunay(&[DVec2::ZERO, DVec2::X]).is_err());
+    assert!(TriMesh::delaunay(&[DVec2::ZERO, DVec2::X, DVec2::new(f64::NAN, 0.0)]).is_err());
+}
