@@ -6,6 +6,9 @@
 //! Every loop is capped by `max_iter`, and nothing here panics: bad values come back as
 //! [`ProjectError`].
 
+// `!(x > 0.0)` is deliberate: it rejects NaN too. Index loops mirror the matrix formulas.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+
 use super::{fd_step, Implicit2, Implicit3};
 use glam::{DVec2, DVec3};
 use thiserror::Error;
