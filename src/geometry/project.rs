@@ -806,6 +806,35 @@ mod tests {
     }
 
     #[test]
+    fn random_points_converge_and_newton_is_optimal() {
+        let mut rng = crate::geometry::testing::Rng::new(0x9e0);
+        let e = Ellipse::new([0.3, -0.2], 2.0, 0.5);
+        let shapes: [&dyn Implicit2; 2] = [&e, &Sine];
+        let mut optimal = 0;
+        for g in shapes {
+            for _ in 0..300 {
+                let p = rng.point2(3.0);
+                for m in [
+                    Projection::FirstOrder,
+                    Projection::SecondOrder,
+                    Projection::Newton,
+                ] {
+                    let q = project2(g, p, m, 1e-12, 200)
+                        .unwrap_or_else(|err| panic!("{m:?} from {p}: {err}"));
+                    assert!(g.value(q).abs() < 1e-10, "{m:?} from {p}");
+                }
+                let q1 = project2(g, p, Projection::FirstOrder, 1e-12, 200).unwrap();
+                let qn = project2(g, p, Projection::Newton, 1e-12, 200).unwrap();
+                assert!((qn - p).length() <= (q1 - p).length() + 1e-9, "from {p}");
+                let n = g.gradient(qn).normalize();
+                optimal += ((p - qn).perp_dot(n).abs() < 1e-8) as usize;
+            }
+        }
+        // Newton reaches a stationary point nearly always (else it falls back to first order).
+        assert!(optimal >= 570, "{optimal} of 600 optimal");
+    }
+
+    #[test]
     fn bad_inputs_are_errors() {
         let nan = |_: DVec2| f64::NAN;
         assert!(matches!(
