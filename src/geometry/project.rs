@@ -608,7 +608,7 @@ mod tests {
     use super::*;
     use crate::geometry::{Ball, Circle, Ellipse};
     use glam::DMat2;
-    use std::f64::consts::{PI, TAU};
+    use std::f64::consts::TAU;
 
     /// phi = y - sin(2 pi x), the seed's figure 3-2 function, with its Hessian.
     struct Sine;
@@ -632,10 +632,8 @@ mod tests {
 
     #[test]
     fn real_roots_of_known_polynomials() {
-        // (t - 1)(t + 2)(t - 3)(t + 0.5) = t^4 - 1.5 t^3 - 6.5 t^2 + 3.5 t + 3... expand numerically.
+        // (t - 1)(t + 2)(t - 3)(t + 0.5), multiplied out.
         let roots = [1.0, -2.0, 3.0, -0.5];
-        let mut c = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-        c[0] = 1.0;
         let mut poly: Poly = pconst(1.0);
         for r in roots {
             let mut lin = pconst(-r);
@@ -653,7 +651,6 @@ mod tests {
         let r = real_roots(&[-2.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0]);
         assert_eq!(r.len(), 2);
         assert!((r[1] - 2f64.sqrt()).abs() < 1e-14);
-        let _ = c;
     }
 
     #[test]
@@ -784,7 +781,6 @@ mod tests {
         // Closest-point optimality of Newton's answer (seed eq. 2.10).
         let n = s.gradient(qn).normalize();
         assert!((p - qn).perp_dot(n).abs() < 1e-8);
-        let _ = PI;
     }
 
     #[test]
