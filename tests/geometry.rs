@@ -251,3 +251,14 @@ fn bad_functions_give_errors_not_panics() {
         "{r:?}"
     );
 }
+
+#[test]
+fn newton_distance_of_an_implicit_ellipse() {
+    // Seed eq. 2.13: a true signed distance from any implicit function.
+    use trussmesh::geometry::newton_distance2;
+    let e = Ellipse::new([0.0, 0.0], 2.0, 1.0);
+    let d = newton_distance2(&e, DVec2::new(0.0, 3.0), TOL, 50).unwrap();
+    assert!((d - 2.0).abs() < 1e-10);
+    let d = newton_distance2(&e, DVec2::new(0.0, 0.5), TOL, 50).unwrap();
+    assert!((d + 0.5).abs() < 1e-10);
+}
