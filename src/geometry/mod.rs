@@ -4,6 +4,27 @@
 
 use glam::{DMat2, DMat3, DVec2, DVec3};
 
+mod csg;
+mod grid;
+mod primitives2;
+mod primitives3;
+pub mod project;
+#[cfg(test)]
+mod testing;
+mod transform;
+
+pub use csg::{
+    difference, exact_corners, intersection, union, Difference, ExactCorners, Intersection, Shape2,
+    Shape3, Union,
+};
+pub use grid::{Grid2, Grid3};
+pub use primitives2::{Circle, Ellipse, Polygon, Rectangle};
+pub use primitives3::{Ball, Box3, Cylinder};
+pub use project::{
+    newton_distance2, newton_distance3, project2, project3, ProjectError, Projection,
+};
+pub use transform::{Implicit2Ext, Implicit3Ext, Rotate, Scale, Translate};
+
 /// A 2-D implicit function. `value` is negative inside.
 pub trait Implicit2: Sync + Send {
     /// The function value at `p`.

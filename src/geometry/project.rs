@@ -1,0 +1,869 @@
+//! Projection of points onto the zero set of an implicit function (seed sections 2.4 and 3.2).
+//!
+//! The mesher moves boundary nodes back onto the boundary with these. A signed distance projects
+//! in one exact step; a general level-set function needs first-order (seed eq. 3.9),
+//! second-order (seed eq. 3.10-3.16) or Newton closest-point (seed eq. 2.10-2.13) projections.
+//! Every loop is capped by `max_iter`, and nothing here panics: bad values come back as
+//! [`ProjectError`].
+
+// `!(x > 0.0)` is deliberate: it rejects NaN too. Index loops mirror the matrix formulas.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+
+use super::{fd_step, Implicit2, Implicit3};
+use glam::{DVec2, DVec3};
+use thiserror::Error;
+
+/// How to project.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Projection {
+    /// [`Projection::Exact`] for signed distances, else [`Projection::FirstOrder`].
+    #[default]
+    Auto,
+    /// p - d grad d / |grad d|, repeated until |d| < tol: one step for a true distance.
+    Exact,
+    /// p - phi grad phi / |grad phi|^2 (seed eq. 3.9), repeated until |phi| / |grad phi| < tol.
+    FirstOrder,
+    /// The second-order step of seed eq. 3.10-3.16 (needs the Hessian; a first-order step
+    /// where there is none or the quadratic model has no real root), repeated.
+    SecondOrder,
+    /// The true closest point by damped Newton (seed eq. 2.10-2.12), started from a first-order
+    /// projection; falls back to that first-order point when Newton fails.
+    Newton,
+}
+
+/// Why a projection failed.
+#[derive(Clone, Copy, Debug, PartialEq, Error)]
+pub enum ProjectError {
+    /// The function, its gradient or the input point was NaN or infinite.
+    #[error("non-finite value {value} from the geometry or the input point")]
+    NonFinite {
+        /// The offending number.
+        value: f64,
+    },
+    /// The gradient vanished off the zero set, so there is no direction to move in.
+    #[error("zero gradient away from the boundary: no direction to project along")]
+    ZeroGradient,
+    /// The iteration cap was reached.
+    #[error("projection did not converge; residual {residual}")]
+    NoConvergence {
+        /// The last |phi| / |grad phi| (|d| for exact projections).
+        residual: f64,
+    },
+}
+
+/// Projects `p` onto the zero set of `g`. `tol` bounds the final residual (see [`Projection`]);
+/// `max_iter` caps the steps (0 only checks `p`).
+pub fn project2(
+    g: &dyn Implicit2,
+    p: DVec2,
+    method: Projection,
+    tol: f64,
+    max_iter: usize,
+) -> Result<DVec2, ProjectError> {
+    project(&G2(g), p.to_array(), method, tol, max_iter).map(DVec2::from_array)
+}
+
+/// Projects `p` onto the zero set of `g`; see [`project2`].
+pub fn project3(
+    g: &dyn Implicit3,
+    p: DVec3,
+    method: Projection,
+    tol: f64,
+    max_iter: usize,
+) -> Result<DVec3, ProjectError> {
+    project(&G3(g), p.to_array(), method, tol, max_iter).map(DVec3::from_array)
+}
+
+/// The signed distance from `p` to the zero set of any implicit `g`: sign(phi(p)) |p - P| with
+/// P the Newton closest point (seed eq. 2.13).
+pub fn newton_distance2(
+    g: &dyn Implicit2,
+    p: DVec2,
+    tol: f64,
+    max_iter: usize,
+) -> Result<f64, ProjectError> {
+    let q = project2(g, p, Projection::Newton, tol, max_iter)?;
+    Ok((p - q).length().copysign(g.value(p)))
+}
+
+/// 3-D [`newton_distance2`].
+pub fn newton_distance3(
+    g: &dyn Implicit3,
+    p: DVec3,
+    tol: f64,
+    max_iter: usize,
+) -> Result<f64, ProjectError> {
+    let q = project3(g, p, Projection::Newton, tol, max_iter)?;
+    Ok((p - q).length().copysign(g.value(p)))
+}
+
+// ---------------------------------------------------------------------------------------------
+// One body for both dimensions, over plain arrays.
+
+type Vector<const N: usize> = [f64; N];
+type Matrix<const N: usize> = [[f64; N]; N];
+
+trait Geom<const N: usize> {
+    fn value(&self, p: Vector<N>) -> f64;
+    fn gradient(&self, p: Vector<N>) -> Vector<N>;
+    fn hessian(&self, p: Vector<N>) -> Option<Matrix<N>>;
+    fn is_distance(&self) -> bool;
+}
+
+struct G2<'a>(&'a dyn Implicit2);
+struct G3<'a>(&'a dyn Implicit3);
+
+impl Geom<2> for G2<'_> {
+    fn value(&self, p: Vector<2>) -> f64 {
+        self.0.value(DVec2::from_array(p))
+    }
+    fn gradient(&self, p: Vector<2>) -> Vector<2> {
+        self.0.gradient(DVec2::from_array(p)).to_array()
+    }
+    fn hessian(&self, p: Vector<2>) -> Option<Matrix<2>> {
+        // Column-major from glam; the Hessian is symmetric, so rows = columns.
+        self.0
+            .hessian(DVec2::from_array(p))
+            .map(|m| m.to_cols_array_2d())
+    }
+    fn is_distance(&self) -> bool {
+        self.0.is_distance()
+    }
+}
+
+impl Geom<3> for G3<'_> {
+    fn value(&self, p: Vector<3>) -> f64 {
+        self.0.value(DVec3::from_array(p))
+    }
+    fn gradient(&self, p: Vector<3>) -> Vector<3> {
+        self.0.gradient(DVec3::from_array(p)).to_array()
+    }
+    fn hessian(&self, p: Vector<3>) -> Option<Matrix<3>> {
+        self.0
+            .hessian(DVec3::from_array(p))
+            .map(|m| m.to_cols_array_2d())
+    }
+    fn is_distance(&self) -> bool {
+        self.0.is_distance()
+    }
+}
+
+#[inline]
+fn dot<const N: usize>(a: Vector<N>, b: Vector<N>) -> f64 {
+    (0..N).map(|i| a[i] * b[i]).sum()
+}
+#[inline]
+fn axpy<const N: usize>(x: Vector<N>, s: f64, y: Vector<N>) -> Vector<N> {
+    std::array::from_fn(|i| x[i] + s * y[i])
+}
+#[inline]
+fn norm<const N: usize>(a: Vector<N>) -> f64 {
+    dot(a, a).sqrt()
+}
+
+fn first_non_finite(xs: &[f64]) -> Option<f64> {
+    xs.iter().copied().find(|v| !v.is_finite())
+}
+
+/// phi and grad phi at `x`, screened for NaN and infinity.
+fn eval<const N: usize>(g: &impl Geom<N>, x: Vector<N>) -> Result<(f64, Vector<N>), ProjectError> {
+    let phi = g.value(x);
+    if !phi.is_finite() {
+        return Err(ProjectError::NonFinite { value: phi });
+    }
+    let grad = g.gradient(x);
+    if let Some(value) = first_non_finite(&grad) {
+        return Err(ProjectError::NonFinite { value });
+    }
+    Ok((phi, grad))
+}
+
+fn project<const N: usize>(
+    g: &impl Geom<N>,
+    p: Vector<N>,
+    method: Projection,
+    tol: f64,
+    max_iter: usize,
+) -> Result<Vector<N>, ProjectError> {
+    if let Some(value) = first_non_finite(&p) {
+        return Err(ProjectError::NonFinite { value });
+    }
+    let method = match method {
+        Projection::Auto if g.is_distance() => Projection::Exact,
+        Projection::Auto => Projection::FirstOrder,
+        m => m,
+    };
+    if method == Projection::Newton {
+        return newton(g, p, tol, max_iter);
+    }
+    let mut x = p;
+    let mut residual = f64::INFINITY;
+    for it in 0..=max_iter {
+        let (phi, grad) = eval(g, x)?;
+        if phi == 0.0 {
+            return Ok(x);
+        }
+        let g2 = dot(grad, grad);
+        if !(g2 > 0.0) {
+            return Err(ProjectError::ZeroGradient);
+        }
+        let gl = g2.sqrt();
+        residual = if method == Projection::Exact {
+            phi.abs()
+        } else {
+            phi.abs() / gl
+        };
+        if residual < tol {
+            return Ok(x);
+        }
+        if it == max_iter {
+            break;
+        }
+        let first = axpy([0.0; N], -phi / g2, grad); // seed eq. 3.9
+        let step = match method {
+            Projection::Exact => axpy([0.0; N], -phi / gl, grad),
+            Projection::SecondOrder => second_order_step(g, x, phi, grad).unwrap_or(first),
+            _ => first,
+        };
+        x = axpy(x, 1.0, step);
+    }
+    Err(ProjectError::NoConvergence { residual })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Second order (seed eq. 3.10-3.16).
+//
+// With the quadratic Taylor model phi + g.D + D^T H D / 2 = 0 and D + t (g + H D) = 0
+// (seed eq. 3.11-3.12), D(t) = -t adj(I + tH) g / det(I + tH) (seed eq. 3.13-3.14). Putting D in
+// the model and multiplying by det^2 gives a polynomial in t: the quartic of seed eq. 3.15-3.16
+// in 2-D, a sextic in 3-D. It is built here by polynomial arithmetic, not from the expanded
+// coefficients, so one body serves both dimensions.
+
+/// Polynomial coefficients, lowest degree first; degree 6 is the most needed.
+type Poly = [f64; 7];
+
+fn pmul(a: &Poly, b: &Poly) -> Poly {
+    let mut c = [0.0; 7];
+    for i in 0..7 {
+        for j in 0..7 - i {
+            c[i + j] += a[i] * b[j];
+        }
+    }
+    c
+}
+fn padd(a: &Poly, b: &Poly, s: f64) -> Poly {
+    std::array::from_fn(|i| a[i] + s * b[i])
+}
+fn pconst(c: f64) -> Poly {
+    let mut p = [0.0; 7];
+    p[0] = c;
+    p
+}
+fn peval(c: &[f64], t: f64) -> f64 {
+    c.iter().rev().fold(0.0, |acc, &ci| acc * t + ci)
+}
+
+/// adj(I + tH) and det(I + tH) as polynomials in t.
+fn adjugate_det<const N: usize>(h: &Matrix<N>) -> ([[Poly; N]; N], Poly) {
+    // m[i][j] = delta_ij + t h_ij.
+    let m: [[Poly; N]; N] = std::array::from_fn(|i| {
+        std::array::from_fn(|j| {
+            let mut p = pconst(if i == j { 1.0 } else { 0.0 });
+            p[1] = h[i][j];
+            p
+        })
+    });
+    let mut adj = [[[0.0; 7]; N]; N];
+    let det;
+    if N == 2 {
+        adj[0][0] = m[1][1];
+        adj[1][1] = m[0][0];
+        adj[0][1] = padd(&[0.0; 7], &m[0][1], -1.0);
+        adj[1][0] = padd(&[0.0; 7], &m[1][0], -1.0);
+        det = padd(&pmul(&m[0][0], &m[1][1]), &pmul(&m[0][1], &m[1][0]), -1.0);
+    } else {
+        // Cofactor C_ji of the transpose: adj[i][j] = C_ji.
+        for i in 0..N {
+            for j in 0..N {
+                let (r0, r1) = ((j + 1) % 3, (j + 2) % 3);
+                let (c0, c1) = ((i + 1) % 3, (i + 2) % 3);
+                adj[i][j] = padd(
+                    &pmul(&m[r0][c0], &m[r1][c1]),
+                    &pmul(&m[r0][c1], &m[r1][c0]),
+                    -1.0,
+                );
+            }
+        }
+        det = (0..N).fold([0.0; 7], |acc, j| {
+            padd(&acc, &pmul(&m[0][j], &adj[j][0]), 1.0)
+        });
+    }
+    (adj, det)
+}
+
+/// The seed's second-order correction from `x`, or None without a Hessian or a usable root.
+fn second_order_step<const N: usize>(
+    g: &impl Geom<N>,
+    x: Vector<N>,
+    phi: f64,
+    grad: Vector<N>,
+) -> Option<Vector<N>> {
+    let h = g.hessian(x)?;
+    if h.iter().flatten().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let (adj, det) = adjugate_det(&h);
+    // numerator[i] = -t sum_j adj[i][j] g_j, so that D = numerator / det.
+    let mut minus_t = [0.0; 7];
+    minus_t[1] = -1.0;
+    let num: [Poly; N] = std::array::from_fn(|i| {
+        let s = (0..N).fold([0.0; 7], |acc, j| padd(&acc, &adj[i][j], grad[j]));
+        pmul(&minus_t, &s)
+    });
+    // det^2 phi + det (g . num) + num^T H num / 2.
+    let mut quartic = padd(&[0.0; 7], &pmul(&det, &det), phi);
+    let g_num = (0..N).fold([0.0; 7], |acc, i| padd(&acc, &num[i], grad[i]));
+    quartic = padd(&quartic, &pmul(&det, &g_num), 1.0);
+    for i in 0..N {
+        for j in 0..N {
+            quartic = padd(&quartic, &pmul(&num[i], &num[j]), 0.5 * h[i][j]);
+        }
+    }
+    let mut best: Option<(f64, Vector<N>)> = None;
+    for t in real_roots(&quartic) {
+        let dt = peval(&det, t);
+        // Roots where I + tH is singular are artefacts of clearing the denominator.
+        if !(dt.abs() > 1e-10) {
+            continue;
+        }
+        let step: Vector<N> = std::array::from_fn(|i| peval(&num[i], t) / dt);
+        if first_non_finite(&step).is_some() {
+            continue;
+        }
+        if best.map_or(true, |(bt, _)| t.abs() < bt.abs()) {
+            best = Some((t, step));
+        }
+    }
+    best.map(|(_, s)| s)
+}
+
+/// The real roots of the polynomial `c` (lowest degree first), found by isolating them between
+/// the roots of the derivative and polishing by safeguarded Newton: no companion matrix, and
+/// every root of odd multiplicity is found. Order is ascending.
+fn real_roots(c: &[f64]) -> Vec<f64> {
+    let mut n = c.len();
+    while n > 0 && c[n - 1] == 0.0 {
+        n -= 1;
+    }
+    let c = &c[..n];
+    match n {
+        0 | 1 => return Vec::new(),
+        2 => return vec![-c[0] / c[1]],
+        3 => {
+            let (a, b, cc) = (c[2], c[1], c[0]);
+            let disc = b * b - 4.0 * a * cc;
+            if disc < 0.0 {
+                return Vec::new();
+            }
+            let q = -0.5 * (b + disc.sqrt().copysign(b));
+            let mut r = vec![q / a];
+            if q != 0.0 {
+                r.push(cc / q);
+            }
+            r.sort_by(f64::total_cmp);
+            return r;
+        }
+        _ => {}
+    }
+    let lead = c[n - 1];
+    let bound = 1.0
+        + c[..n - 1]
+            .iter()
+            .map(|ci| (ci / lead).abs())
+            .fold(0.0, f64::max);
+    if !bound.is_finite() {
+        return Vec::new();
+    }
+    let deriv: Vec<f64> = (1..n).map(|i| i as f64 * c[i]).collect();
+    let mut knots = vec![-bound];
+    knots.extend(real_roots(&deriv).into_iter().filter(|r| r.abs() < bound));
+    knots.push(bound);
+    let mut roots: Vec<f64> = Vec::new();
+    for w in knots.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let (fa, fb) = (peval(c, a), peval(c, b));
+        if fa == 0.0 {
+            roots.push(a);
+        } else if fa * fb < 0.0 {
+            roots.push(bracketed_root(c, &deriv, a, b, fa));
+        }
+    }
+    if peval(c, bound) == 0.0 {
+        roots.push(bound);
+    }
+    roots.dedup();
+    roots
+}
+
+/// A root in [a, b] where c changes sign: Newton steps kept inside a shrinking bracket.
+fn bracketed_root(c: &[f64], deriv: &[f64], mut a: f64, mut b: f64, fa: f64) -> f64 {
+    let sa = fa.signum();
+    let mut x = 0.5 * (a + b);
+    for _ in 0..200 {
+        let fx = peval(c, x);
+        if fx == 0.0 {
+            return x;
+        }
+        if fx.signum() == sa {
+            a = x;
+        } else {
+            b = x;
+        }
+        let d = peval(deriv, x);
+        let newton = x - fx / d;
+        let next = if newton > a.min(b) && newton < a.max(b) {
+            newton
+        } else {
+            0.5 * (a + b)
+        };
+        if next == x || (b - a).abs() <= 4.0 * f64::EPSILON * x.abs().max(f64::MIN_POSITIVE) {
+            return next;
+        }
+        x = next;
+    }
+    x
+}
+
+// ---------------------------------------------------------------------------------------------
+// Newton closest point (seed eq. 2.10-2.12).
+//
+// The seed's system L(P) = [phi; (x - x0) phi_y - (y - y0) phi_x] = 0 says phi = 0 and
+// P - p0 parallel to grad phi. It is solved here in the equivalent Lagrange form of seed eq.
+// 3.3-3.4, F(x, t) = [x - p + t grad phi(x); phi(x)] = 0, which is square in any dimension,
+// with Jacobian [[I + t H, grad phi], [grad phi^T, 0]] and step halving on |F|.
+
+fn newton<const N: usize>(
+    g: &impl Geom<N>,
+    p: Vector<N>,
+    tol: f64,
+    max_iter: usize,
+) -> Result<Vector<N>, ProjectError> {
+    let first = project(g, p, Projection::FirstOrder, tol, max_iter);
+    let start = match first {
+        Ok(x) => x,
+        Err(ProjectError::NoConvergence { .. }) => p,
+        Err(e) => return Err(e),
+    };
+    match newton_polish(g, p, start, tol, max_iter) {
+        // A stationary point farther than the first-order point cannot be the closest one.
+        Some(x)
+            if first.map_or(true, |f| {
+                norm(sub(x, p)) <= norm(sub(f, p)) * (1.0 + 1e-8) + tol
+            }) =>
+        {
+            Ok(x)
+        }
+        _ => first,
+    }
+}
+
+#[inline]
+fn sub<const N: usize>(a: Vector<N>, b: Vector<N>) -> Vector<N> {
+    axpy(a, -1.0, b)
+}
+
+/// The Hessian, or central differences of the gradient when the geometry gives none.
+fn hessian_or_fd<const N: usize>(g: &impl Geom<N>, x: Vector<N>) -> Matrix<N> {
+    if let Some(h) = g.hessian(x) {
+        return h;
+    }
+    let h = fd_step(x.iter().fold(0.0, |m: f64, v| m.max(v.abs())));
+    let mut m = [[0.0; N]; N];
+    for j in 0..N {
+        let mut e = [0.0; N];
+        e[j] = h;
+        let (gp, gm) = (g.gradient(axpy(x, 1.0, e)), g.gradient(axpy(x, -1.0, e)));
+        for i in 0..N {
+            m[i][j] = (gp[i] - gm[i]) / (2.0 * h);
+        }
+    }
+    // Symmetrise the difference quotient.
+    for i in 0..N {
+        for j in 0..i {
+            let s = 0.5 * (m[i][j] + m[j][i]);
+            m[i][j] = s;
+            m[j][i] = s;
+        }
+    }
+    m
+}
+
+/// F(x, t) and |F|; None when the geometry gives non-finite numbers there.
+fn lagrange_residual<const N: usize>(
+    g: &impl Geom<N>,
+    p: Vector<N>,
+    x: Vector<N>,
+    t: f64,
+) -> Option<(Vector<N>, f64, Vector<N>, f64)> {
+    let (phi, grad) = eval(g, x).ok()?;
+    let r = std::array::from_fn(|i| x[i] - p[i] + t * grad[i]);
+    let merit = (dot(r, r) + phi * phi).sqrt();
+    Some((r, phi, grad, merit))
+}
+
+fn newton_polish<const N: usize>(
+    g: &impl Geom<N>,
+    p: Vector<N>,
+    start: Vector<N>,
+    tol: f64,
+    max_iter: usize,
+) -> Option<Vector<N>> {
+    let mut x = start;
+    let (_, g0) = eval(g, x).ok()?;
+    let g02 = dot(g0, g0);
+    if !(g02 > 0.0) {
+        return None;
+    }
+    let mut t = dot(sub(p, x), g0) / g02;
+    let (mut r, mut phi, mut grad, mut merit) = lagrange_residual(g, p, x, t)?;
+    // Round-off floor for the parallel residual, which carries the size of the coordinates.
+    let floor = 16.0 * f64::EPSILON * (1.0 + norm(p) + norm(x));
+    for _ in 0..=max_iter {
+        let gl = norm(grad);
+        if !(gl > 0.0) {
+            return None;
+        }
+        if phi.abs() / gl < tol && norm(r) < tol.max(floor) {
+            return Some(x);
+        }
+        // J [dx; dt] = -[r; phi], J = [[I + tH, g], [g^T, 0]].
+        let h = hessian_or_fd(g, x);
+        let mut a = [[0.0; 5]; 4];
+        for i in 0..N {
+            for j in 0..N {
+                a[i][j] = t * h[i][j] + if i == j { 1.0 } else { 0.0 };
+            }
+            a[i][N] = grad[i];
+            a[N][i] = grad[i];
+            a[i][N + 1] = -r[i];
+        }
+        a[N][N + 1] = -phi;
+        let d = solve(&mut a, N + 1)?;
+        let mut alpha = 1.0;
+        let mut accepted = false;
+        for _ in 0..40 {
+            let xn: Vector<N> = std::array::from_fn(|i| x[i] + alpha * d[i]);
+            let tn = t + alpha * d[N];
+            if let Some((rn, phin, gradn, mn)) = lagrange_residual(g, p, xn, tn) {
+                if mn < (1.0 - 1e-4 * alpha) * merit {
+                    (x, t, r, phi, grad, merit) = (xn, tn, rn, phin, gradn, mn);
+                    accepted = true;
+                    break;
+                }
+            }
+            alpha *= 0.5;
+        }
+        if !accepted {
+            // Stuck at round-off: accept if already on the zero set and nearly optimal.
+            let gl = norm(grad);
+            return (phi.abs() / gl < tol && norm(r) < 1e3 * tol.max(floor)).then_some(x);
+        }
+    }
+    None
+}
+
+/// Gaussian elimination with partial pivoting on the `n` by `n + 1` augmented system in `a`.
+fn solve(a: &mut [[f64; 5]; 4], n: usize) -> Option<[f64; 4]> {
+    let scale = a
+        .iter()
+        .take(n)
+        .flat_map(|row| row[..n].iter())
+        .fold(0.0, |m: f64, v| m.max(v.abs()));
+    if !(scale > 0.0) {
+        return None;
+    }
+    for k in 0..n {
+        let piv = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))?;
+        if !(a[piv][k].abs() > 1e-14 * scale) {
+            return None;
+        }
+        a.swap(k, piv);
+        for i in k + 1..n {
+            let f = a[i][k] / a[k][k];
+            for j in k..=n {
+                a[i][j] -= f * a[k][j];
+            }
+        }
+    }
+    let mut x = [0.0; 4];
+    for k in (0..n).rev() {
+        let s: f64 = (k + 1..n).map(|j| a[k][j] * x[j]).sum();
+        x[k] = (a[k][n] - s) / a[k][k];
+    }
+    first_non_finite(&x[..n]).is_none().then_some(x)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Ball, Circle, Ellipse};
+    use glam::DMat2;
+    use std::f64::consts::TAU;
+
+    /// phi = y - sin(2 pi x), the seed's figure 3-2 function, with its Hessian.
+    struct Sine;
+    impl Implicit2 for Sine {
+        fn value(&self, p: DVec2) -> f64 {
+            p.y - (TAU * p.x).sin()
+        }
+        fn gradient(&self, p: DVec2) -> DVec2 {
+            DVec2::new(-TAU * (TAU * p.x).cos(), 1.0)
+        }
+        fn hessian(&self, p: DVec2) -> Option<DMat2> {
+            Some(DMat2::from_cols(
+                DVec2::new(TAU * TAU * (TAU * p.x).sin(), 0.0),
+                DVec2::ZERO,
+            ))
+        }
+        fn is_distance(&self) -> bool {
+            false
+        }
+    }
+
+    #[test]
+    fn real_roots_of_known_polynomials() {
+        // (t - 1)(t + 2)(t - 3)(t + 0.5), multiplied out.
+        let roots = [1.0, -2.0, 3.0, -0.5];
+        let mut poly: Poly = pconst(1.0);
+        for r in roots {
+            let mut lin = pconst(-r);
+            lin[1] = 1.0;
+            poly = pmul(&poly, &lin);
+        }
+        let found = real_roots(&poly);
+        assert_eq!(found.len(), 4);
+        for (f, w) in found.iter().zip([-2.0, -0.5, 1.0, 3.0]) {
+            assert!((f - w).abs() < 1e-12, "{found:?}");
+        }
+        // t^4 + 1: none.
+        assert!(real_roots(&[1.0, 0.0, 0.0, 0.0, 1.0]).is_empty());
+        // Sextic with two real roots: (t^2 - 2)(t^4 + t^2 + 1).
+        let r = real_roots(&[-2.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0]);
+        assert_eq!(r.len(), 2);
+        assert!((r[1] - 2f64.sqrt()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn seed_quartic_coefficients_match() {
+        // Check the built polynomial against the seed's p0..p2 of eq. 3.16 at a sample point.
+        let (phi, gx, gy, hxx, hxy, hyy) = (0.3, 0.7, -1.1, 0.9, -0.4, 1.3);
+        let h = [[hxx, hxy], [hxy, hyy]];
+        let (adj, det) = adjugate_det(&h);
+        let grad = [gx, gy];
+        let mut minus_t = [0.0; 7];
+        minus_t[1] = -1.0;
+        let num: [Poly; 2] = std::array::from_fn(|i| {
+            let s = (0..2).fold([0.0; 7], |acc, j| padd(&acc, &adj[i][j], grad[j]));
+            pmul(&minus_t, &s)
+        });
+        // Seed eq. 3.13: numerator of dx = (gy hxy - gx hyy) t^2 - gx t.
+        assert!((num[0][1] + gx).abs() < 1e-15);
+        assert!((num[0][2] - (gy * hxy - gx * hyy)).abs() < 1e-15);
+        assert!((det[2] - (hxx * hyy - hxy * hxy)).abs() < 1e-15);
+        let mut q = padd(&[0.0; 7], &pmul(&det, &det), phi);
+        let g_num = (0..2).fold([0.0; 7], |acc, i| padd(&acc, &num[i], grad[i]));
+        q = padd(&q, &pmul(&det, &g_num), 1.0);
+        for i in 0..2 {
+            for j in 0..2 {
+                q = padd(&q, &pmul(&num[i], &num[j]), 0.5 * h[i][j]);
+            }
+        }
+        let p1 = 2.0 * phi * (hxx + hyy) - gx * gx - gy * gy;
+        let p2 = phi * hxx * hxx + phi * hyy * hyy + 4.0 * phi * hyy * hxx
+            - 2.0 * gy * gy * hxx
+            - 2.0 * gx * gx * hyy
+            - 2.0 * phi * hxy * hxy
+            - 0.5 * gy * gy * hyy
+            - 0.5 * gx * gx * hxx
+            + 3.0 * gx * hxy * gy;
+        let p4 = -gx * hxy.powi(3) * gy + phi * hyy * hyy * hxx * hxx + phi * hxy.powi(4)
+            - 2.0 * phi * hxy * hxy * hyy * hxx
+            + 0.5 * gy * gy * hxx * hxy * hxy
+            - 0.5 * gy * gy * hxx * hxx * hyy
+            - 0.5 * gx * gx * hyy * hyy * hxx
+            + 0.5 * gx * gx * hyy * hxy * hxy
+            + gx * hxy * gy * hyy * hxx;
+        assert!((q[0] - phi).abs() < 1e-14);
+        assert!((q[1] - p1).abs() < 1e-14);
+        assert!((q[2] - p2).abs() < 1e-14, "{} vs {p2}", q[2]);
+        assert!((q[4] - p4).abs() < 1e-14, "{} vs {p4}", q[4]);
+        assert_eq!(q[5], 0.0);
+    }
+
+    #[test]
+    fn every_method_lands_on_circle_and_ellipse() {
+        let c = Circle::new([0.2, -0.1], 1.3);
+        let e = Ellipse::new([0.0, 0.0], 2.0, 1.0);
+        let methods = [
+            Projection::Auto,
+            Projection::Exact,
+            Projection::FirstOrder,
+            Projection::SecondOrder,
+            Projection::Newton,
+        ];
+        for p in [
+            DVec2::new(2.5, 1.0),
+            DVec2::new(0.1, 0.3),
+            DVec2::new(-3.0, -0.2),
+        ] {
+            for m in methods {
+                let q = project2(&c, p, m, 1e-12, 50).unwrap();
+                assert!(c.value(q).abs() < 1e-10, "{m:?} circle from {p}");
+                if m == Projection::Exact {
+                    continue; // assumes a distance; Auto picks first order for the ellipse
+                }
+                let q = project2(&e, p, m, 1e-12, 100).unwrap();
+                assert!(e.value(q).abs() < 1e-10, "{m:?} ellipse from {p}");
+            }
+        }
+        // For the circle Newton is the radial point.
+        let p = DVec2::new(2.5, 1.0);
+        let q = project2(&c, p, Projection::Newton, 1e-12, 50).unwrap();
+        let want = c.center + (p - c.center).normalize() * c.radius;
+        assert!((q - want).length() < 1e-12);
+    }
+
+    #[test]
+    fn ellipse_newton_is_the_closest_point() {
+        let e = Ellipse::new([0.0, 0.0], 2.0, 1.0);
+        let p = DVec2::new(1.7, 1.4);
+        let q = project2(&e, p, Projection::Newton, 1e-13, 50).unwrap();
+        // Brute force over the parametrisation.
+        let best = (0..200_000)
+            .map(|k| {
+                let a = TAU * k as f64 / 200_000.0;
+                (DVec2::new(2.0 * a.cos(), a.sin()) - p).length()
+            })
+            .fold(f64::INFINITY, f64::min);
+        assert!((q - p).length() <= best + 1e-9);
+        let n = e.gradient(q).normalize();
+        assert!((p - q).perp_dot(n).abs() < 1e-10);
+    }
+
+    #[test]
+    fn seed_figure_3_2() {
+        let s = Sine;
+        let p = DVec2::new(0.23, (TAU * 0.23).sin() + 0.05);
+        let q1 = project2(&s, p, Projection::FirstOrder, 1e-12, 100).unwrap();
+        let q2 = project2(&s, p, Projection::SecondOrder, 1e-12, 100).unwrap();
+        let qn = project2(&s, p, Projection::Newton, 1e-12, 100).unwrap();
+        for q in [q1, q2, qn] {
+            assert!(s.value(q).abs() < 1e-10);
+        }
+        // The true closest point: minimise |(x, sin 2 pi x) - p| by dense search then Newton.
+        let f = |x: f64| (DVec2::new(x, (TAU * x).sin()) - p).length();
+        let mut xb = (0..100_000)
+            .map(|k| 0.23 + (k as f64 / 100_000.0 - 0.5) * 0.2)
+            .min_by(|a, b| f(*a).total_cmp(&f(*b)))
+            .unwrap();
+        for _ in 0..50 {
+            let h = 1e-6;
+            let d1 = (f(xb + h) - f(xb - h)) / (2.0 * h);
+            let d2 = (f(xb + h) - 2.0 * f(xb) + f(xb - h)) / (h * h);
+            xb -= d1 / d2;
+        }
+        let truth = DVec2::new(xb, (TAU * xb).sin());
+        let e1 = (q1 - truth).length();
+        let e2 = (q2 - truth).length();
+        let en = (qn - truth).length();
+        assert!(e2 < e1, "second order {e2} vs first {e1}");
+        assert!(en < e1 && en < 1e-7, "newton {en} vs first {e1}");
+        // Closest-point optimality of Newton's answer (seed eq. 2.10).
+        let n = s.gradient(qn).normalize();
+        assert!((p - qn).perp_dot(n).abs() < 1e-8);
+    }
+
+    #[test]
+    fn ball_projections_3d() {
+        let b = Ball::new([0.1, 0.2, 0.3], 0.9);
+        let ell = |p: DVec3| p.x * p.x + 4.0 * p.y * p.y + 2.0 * p.z * p.z - 1.0;
+        // The closure claims to be a distance by default, so Auto is left out for it.
+        for m in [
+            Projection::FirstOrder,
+            Projection::SecondOrder,
+            Projection::Newton,
+        ] {
+            let p = DVec3::new(1.5, -0.7, 0.4);
+            let q = project3(&b, p, m, 1e-12, 50).unwrap();
+            assert!(b.value(q).abs() < 1e-10);
+            let q = project3(&ell, p, m, 1e-12, 100).unwrap();
+            assert!(ell(q).abs() < 1e-10, "{m:?}");
+        }
+    }
+
+    #[test]
+    fn random_points_converge_and_newton_is_optimal() {
+        let mut rng = crate::geometry::testing::Rng::new(0x9e0);
+        let e = Ellipse::new([0.3, -0.2], 2.0, 0.5);
+        let shapes: [&dyn Implicit2; 2] = [&e, &Sine];
+        let mut optimal = 0;
+        for g in shapes {
+            for _ in 0..300 {
+                let p = rng.point2(3.0);
+                for m in [
+                    Projection::FirstOrder,
+                    Projection::SecondOrder,
+                    Projection::Newton,
+                ] {
+                    let q = project2(g, p, m, 1e-12, 200)
+                        .unwrap_or_else(|err| panic!("{m:?} from {p}: {err}"));
+                    assert!(g.value(q).abs() < 1e-10, "{m:?} from {p}");
+                }
+                let q1 = project2(g, p, Projection::FirstOrder, 1e-12, 200).unwrap();
+                let qn = project2(g, p, Projection::Newton, 1e-12, 200).unwrap();
+                assert!((qn - p).length() <= (q1 - p).length() + 1e-9, "from {p}");
+                let n = g.gradient(qn).normalize();
+                optimal += ((p - qn).perp_dot(n).abs() < 1e-8) as usize;
+            }
+        }
+        // Newton reaches a stationary point nearly always (else it falls back to first order).
+        assert!(optimal >= 570, "{optimal} of 600 optimal");
+    }
+
+    #[test]
+    fn bad_inputs_are_errors() {
+        let nan = |_: DVec2| f64::NAN;
+        assert!(matches!(
+            project2(&nan, DVec2::ONE, Projection::FirstOrder, 1e-12, 10),
+            Err(ProjectError::NonFinite { .. })
+        ));
+        let flat = |_: DVec2| 1.0;
+        for m in [
+            Projection::Auto,
+            Projection::FirstOrder,
+            Projection::SecondOrder,
+            Projection::Newton,
+        ] {
+            assert_eq!(
+                project2(&flat, DVec2::ONE, m, 1e-12, 10),
+                Err(ProjectError::ZeroGradient)
+            );
+        }
+        let c = Circle::new([0.0, 0.0], 1.0);
+        assert!(matches!(
+            project2(
+                &c,
+                DVec2::new(f64::INFINITY, 0.0),
+                Projection::Exact,
+                1e-12,
+                10
+            ),
+            Err(ProjectError::NonFinite { .. })
+        ));
+        // A cap of zero steps only checks.
+        assert!(matches!(
+            project2(&c, DVec2::new(3.0, 0.0), Projection::Exact, 1e-12, 0),
+            Err(ProjectError::NoConvergence { residual }) if (residual - 2.0).abs() < 1e-15
+        ));
+    }
+}
