@@ -31,6 +31,16 @@ impl<'a> Parser<'a> {
         perr(self.path, self.line, m)
     }
 
+    fn unexpected(&self, wanted: &str) -> Error {
+        if self.i >= self.b.len() {
+            self.err(format!(
+                "unexpected end of JSON (truncated file?) while expecting {wanted}"
+            ))
+        } else {
+            self.err(format!("expected {wanted}"))
+        }
+    }
+
     fn ws(&mut self) {
         while let Some(&c) = self.b.get(self.i) {
             match c {
@@ -49,7 +59,7 @@ impl<'a> Parser<'a> {
         self.ws();
         let line = self.line;
         match self.b.get(self.i) {
-            None => Err(self.err("unexpected end of JSON")),
+            None => Err(self.err("unexpected end of JSON (truncated file?)")),
             Some(b'{') => {
                 self.i += 1;
                 let mut fields = Vec::new();
@@ -79,7 +89,7 @@ impl<'a> Parser<'a> {
                             self.i += 1;
                             return Ok(Value::Obj(fields));
                         }
-                        _ => return Err(self.err("expected ',' or '}' in JSON object")),
+                        _ => return Err(self.unexpected("',' or '}' in JSON object")),
                     }
                 }
             }
@@ -100,7 +110,7 @@ impl<'a> Parser<'a> {
                             self.i += 1;
                             return Ok(Value::Arr(items, line));
                         }
-                        _ => return Err(self.err("expected ',' or ']' in JSON array")),
+                        _ => return Err(self.unexpected("',' or ']' in JSON array")),
                     }
                 }
             }

@@ -63,7 +63,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
     loop {
         let ev = r.read_event();
         let line = lc.at(r.buffer_position() as usize);
-        let ev = ev.map_err(|e| perr(path, line, format!("malformed XML: {e}")))?;
+        let ev = ev.map_err(|e| perr(path, line, format!("malformed or truncated XML: {e}")))?;
         let (start, empty) = match &ev {
             Event::Start(e) => (Some(e.clone()), false),
             Event::Empty(e) => (Some(e.clone()), true),
