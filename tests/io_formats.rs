@@ -482,3 +482,67 @@ fn meshio_reads_our_files() {
     }
     std::fs::remove_dir_all(&d).ok();
 }
+
+#[test]
+fn pictures() {
+    let d = tmpdir("pictures");
+    // A finer planar mesh: a perturbed grid so the quality colours vary.
+    let n = 12;
+    let mut points = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, y) = (i as f64 / n as f64, j as f64 / n as f64 * 0.6);
+            let wob = if i % n != 0 && j % n != 0 {
+                0.02 * ((i * 7 + j * 3) % 5) as f64
+            } else {
+                0.0
+            };
+            points.push([x + wob, y - 0.5 * wob, 0.0]);
+        }
+    }
+    let mut cells = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i;
+            cells.extend_from_slice(&[a, a + 1, a + n + 2, a, a + n + 2, a + n + 1]);
+        }
+    }
+    let m2 = MeshData {
+        dim: 2,
+        cell_type: CellType::Triangle,
+        points,
+        cells,
+        subdomain: None,
+    };
+    for (name, m) in [
+        ("plane", m2),
+        ("surface", surface3d(false)),
+        ("tets", tets(true)),
+    ] {
+        let svg = d.join(format!("{name}.svg"));
+        let png = d.join(format!("{name}.png"));
+        trussmesh::io::write_svg(&svg, &m, &format!("{name} <test> & more")).unwrap();
+        trussmesh::io::write_png(&png, &m, name, 600).unwrap();
+        let s = std::fs::read_to_string(&svg).unwrap();
+        assert!(
+            s.starts_with("<svg")
+                && s.contains("&lt;test&gt; &amp; more")
+                && s.contains("<polygon")
+        );
+        let b = std::fs::read(&png).unwrap();
+        assert_eq!(&b[1..4], b"PNG");
+        if let Ok(keep) = std::env::var("TRUSSMESH_KEEP_PICTURES") {
+            std::fs::copy(&png, Path::new(&keep).join(format!("{name}.png"))).unwrap();
+            std::fs::copy(&svg, Path::new(&keep).join(format!("{name}.svg"))).unwrap();
+        }
+    }
+    let empty = MeshData {
+        dim: 2,
+        cell_type: CellType::Triangle,
+        points: vec![],
+        cells: vec![],
+        subdomain: None,
+    };
+    assert!(trussmesh::io::write_png(&d.join("e.png"), &empty, "", 400).is_err());
+    std::fs::remove_dir_all(&d).ok();
+}
