@@ -483,6 +483,50 @@ fn meshio_reads_our_files() {
     std::fs::remove_dir_all(&d).ok();
 }
 
+/// A k*k*k grid of Kuhn-split cubes with a little wobble: a tet mesh worth looking at.
+fn cube_grid(k: usize) -> MeshData {
+    let one = tets(false);
+    let id = |i: usize, j: usize, l: usize| (l * (k + 1) + j) * (k + 1) + i;
+    let mut points = Vec::new();
+    for l in 0..=k {
+        for j in 0..=k {
+            for i in 0..=k {
+                let w = 0.15 * (((i * 5 + j * 3 + l * 7) % 4) as f64 - 1.5) / k as f64;
+                let inner = i % k != 0 && j % k != 0 && l % k != 0;
+                let w = if inner { w } else { 0.0 };
+                points.push([
+                    i as f64 / k as f64 + w,
+                    j as f64 / k as f64 - w,
+                    l as f64 / k as f64 + 0.5 * w,
+                ]);
+            }
+        }
+    }
+    let mut cells = Vec::new();
+    for l in 0..k {
+        for j in 0..k {
+            for i in 0..k {
+                let corner = |c: usize| id(i + (c & 1), j + ((c >> 1) & 1), l + ((c >> 2) & 1));
+                for t in 0..6 {
+                    let mut c: Vec<usize> = one.cell(t).iter().map(|&c| corner(c)).collect();
+                    let v = |a: usize| glam::DVec3::from_array(points[c[a]]);
+                    if (v(1) - v(0)).dot((v(2) - v(0)).cross(v(3) - v(0))) < 0.0 {
+                        c.swap(2, 3);
+                    }
+                    cells.extend(c);
+                }
+            }
+        }
+    }
+    MeshData {
+        dim: 3,
+        cell_type: CellType::Tetra,
+        points,
+        cells,
+        subdomain: None,
+    }
+}
+
 #[test]
 fn pictures() {
     let d = tmpdir("pictures");
@@ -518,6 +562,7 @@ fn pictures() {
         ("plane", m2),
         ("surface", surface3d(false)),
         ("tets", tets(true)),
+        ("cube", cube_grid(4)),
     ] {
         let svg = d.join(format!("{name}.svg"));
         let png = d.join(format!("{name}.png"));
