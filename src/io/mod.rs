@@ -45,3 +45,253 @@ impl MeshData {
         &self.cells[i * k..(i + 1) * k]
     }
 }
+
+mod json;
+mod medit;
+mod msh;
+pub mod picture;
+mod surface;
+mod text;
+mod vtu;
+
+pub use picture::{write_png, write_svg};
+
+use crate::Error;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// A mesh file format, chosen from the file extension by [`read_mesh`] and [`write_mesh`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// Our own JSON layout (`.json`).
+    Json,
+    /// VTK XML unstructured grid with ASCII arrays (`.vtu`).
+    Vtu,
+    /// Gmsh 4.1 ASCII (`.msh`).
+    Msh,
+    /// Medit / mmg (`.mesh`).
+    Medit,
+    /// Wavefront OBJ, triangles only (`.obj`).
+    Obj,
+    /// ASCII STL, triangles only (`.stl`).
+    Stl,
+    /// ASCII PLY, triangles only (`.ply`).
+    Ply,
+}
+
+impl Format {
+    /// Every format, in the order the fuzz body tries them.
+    pub const ALL: [Format; 7] = [
+        Format::Json,
+        Format::Vtu,
+        Format::Msh,
+        Format::Medit,
+        Format::Obj,
+        Format::Stl,
+        Format::Ply,
+    ];
+
+    /// The usual file extension (without the dot).
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Json => "json",
+            Format::Vtu => "vtu",
+            Format::Msh => "msh",
+            Format::Medit => "mesh",
+            Format::Obj => "obj",
+            Format::Stl => "stl",
+            Format::Ply => "ply",
+        }
+    }
+
+    /// The format a path's extension names (case-insensitive).
+    pub fn from_path(path: &Path) -> Result<Format, Error> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .unwrap_or_default();
+        Format::ALL
+            .into_iter()
+            .find(|f| f.extension() == ext)
+            .ok_or_else(|| {
+                Error::Invalid(format!(
+                    "unknown mesh file extension {:?} in {} (expected .json .vtu .msh .mesh .obj .stl .ply)",
+                    ext,
+                    path.display()
+                ))
+            })
+    }
+}
+
+impl MeshData {
+    /// Checks the invariants every writer relies on, so a bad mesh fails before a file is half written.
+    pub fn validate(&self) -> Result<(), Error> {
+        let bad = |m: String| Err(Error::InvalidMesh(m));
+        if self.dim != 2 && self.dim != 3 {
+            return bad(format!("dim must be 2 or 3, not {}", self.dim));
+        }
+        if self.cell_type == CellType::Tetra && self.dim != 3 {
+            return bad("tetrahedra need dim 3".into());
+        }
+        let k = self.cell_type.nodes();
+        if self.cells.len() % k != 0 {
+            return bad(format!(
+                "cells has {} entries, not a multiple of {k}",
+                self.cells.len()
+            ));
+        }
+        for (i, p) in self.points.iter().enumerate() {
+            if !p.iter().all(|c| c.is_finite()) {
+                return bad(format!("point {i} has a non-finite coordinate {p:?}"));
+            }
+            if self.dim == 2 && p[2] != 0.0 {
+                return bad(format!(
+                    "point {i} of a 2-D mesh has z = {} (must be 0)",
+                    p[2]
+                ));
+            }
+        }
+        let n = self.points.len();
+        if let Some(j) = self.cells.iter().position(|&v| v >= n) {
+            return bad(format!(
+                "cell {} uses node {} but there are {n} points",
+                j / k,
+                self.cells[j]
+            ));
+        }
+        if let Some(s) = &self.subdomain {
+            if s.len() != self.num_cells() {
+                return bad(format!(
+                    "{} subdomain labels for {} cells",
+                    s.len(),
+                    self.num_cells()
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Facets (edges of triangles, faces of tets) that belong to one cell only, oriented
+    /// outward from that cell, in order of first appearance: the boundary files record.
+    pub fn boundary_facets(&self) -> Vec<Vec<usize>> {
+        let faces: Vec<Vec<usize>> = (0..self.num_cells())
+            .flat_map(|i| cell_facets(self.cell_type, self.cell(i)))
+            .collect();
+        let mut count: HashMap<Vec<usize>, u32> = HashMap::with_capacity(faces.len());
+        for f in &faces {
+            *count.entry(sorted(f)).or_insert(0) += 1;
+        }
+        faces
+            .into_iter()
+            .filter(|f| count[&sorted(f)] == 1)
+            .collect()
+    }
+}
+
+/// The facets of one cell, oriented outward for counter-clockwise triangles and positive tets.
+pub(crate) fn cell_facets(ct: CellType, c: &[usize]) -> Vec<Vec<usize>> {
+    match ct {
+        CellType::Triangle => vec![vec![c[0], c[1]], vec![c[1], c[2]], vec![c[2], c[0]]],
+        CellType::Tetra => vec![
+            vec![c[1], c[2], c[3]],
+            vec![c[0], c[3], c[2]],
+            vec![c[0], c[1], c[3]],
+            vec![c[0], c[2], c[1]],
+        ],
+    }
+}
+
+pub(crate) fn sorted(f: &[usize]) -> Vec<usize> {
+    let mut s = f.to_vec();
+    s.sort_unstable();
+    s
+}
+
+/// Reads a mesh file, choosing the format from the extension.
+pub fn read_mesh(path: &Path) -> Result<MeshData, Error> {
+    let format = Format::from_path(path)?;
+    let bytes = std::fs::read(path).map_err(|e| Error::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    read_named(&bytes, format, &path.display().to_string())
+}
+
+/// Writes a mesh file, choosing the format from the extension.
+pub fn write_mesh(path: &Path, mesh: &MeshData) -> Result<(), Error> {
+    let format = Format::from_path(path)?;
+    let bytes = write_mesh_bytes(mesh, format)?;
+    std::fs::write(path, bytes).map_err(|e| Error::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })
+}
+
+/// Reads a mesh from memory (errors name the source `<memory>`).
+pub fn read_mesh_bytes(bytes: &[u8], format: Format) -> Result<MeshData, Error> {
+    read_named(bytes, format, "<memory>")
+}
+
+/// Writes a mesh to memory in the given format.
+pub fn write_mesh_bytes(mesh: &MeshData, format: Format) -> Result<Vec<u8>, Error> {
+    mesh.validate()?;
+    let s = match format {
+        Format::Json => json::write(mesh),
+        Format::Vtu => vtu::write(mesh),
+        Format::Msh => msh::write(mesh),
+        Format::Medit => medit::write(mesh),
+        Format::Obj => surface::write_obj(mesh),
+        Format::Stl => surface::write_stl(mesh),
+        Format::Ply => surface::write_ply(mesh),
+    };
+    Ok(s.into_bytes())
+}
+
+fn read_named(bytes: &[u8], format: Format, name: &str) -> Result<MeshData, Error> {
+    let s = std::str::from_utf8(bytes).map_err(|e| {
+        let line = 1 + bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        Error::Parse {
+            path: name.to_string(),
+            line,
+            message: "the file is not UTF-8 text (binary files are not supported)".into(),
+        }
+    })?;
+    let m = match format {
+        Format::Json => json::read(s, name)?,
+        Format::Vtu => vtu::read(s, name)?,
+        Format::Msh => msh::read(s, name)?,
+        Format::Medit => medit::read(s, name)?,
+        Format::Obj => surface::read_obj(s, name)?,
+        Format::Stl => surface::read_stl(s, name)?,
+        Format::Ply => surface::read_ply(s, name)?,
+    };
+    // Readers check as they go; this catches anything they missed, still as a parse error.
+    m.validate().map_err(|e| Error::Parse {
+        path: name.to_string(),
+        line: 0,
+        message: e.to_string(),
+    })?;
+    Ok(m)
+}
+
+/// Fuzz body: every reader must return instead of panicking, and whatever one accepts must
+/// survive its own writer and reader unchanged.
+pub fn fuzz_read_all(data: &[u8]) {
+    for format in Format::ALL {
+        if let Ok(m) = read_mesh_bytes(data, format) {
+            let bytes = write_mesh_bytes(&m, format)
+                .unwrap_or_else(|e| panic!("{format:?}: writing what was read failed: {e}"));
+            let back = read_mesh_bytes(&bytes, format).unwrap_or_else(|e| {
+                panic!(
+                    "{format:?}: reading our own output failed: {e}\n{}",
+                    String::from_utf8_lossy(&bytes)
+                )
+            });
+            assert_eq!(m, back, "{format:?}: round trip changed the mesh");
+        }
+    }
+}
