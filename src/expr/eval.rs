@@ -567,8 +567,8 @@ pub(crate) fn poly_nearest(
         };
         let (dx, dy) = (wx - t * ex, wy - t * ey);
         let d2 = dx * dx + dy * dy;
-        // `!(>=)` so that a NaN distance sticks.
-        if !(d2 >= best) {
+        // A NaN distance sticks: once `best` is NaN no comparison is true.
+        if d2 < best || d2.is_nan() {
             best = d2;
             seg = i;
             bt = t;

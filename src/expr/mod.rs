@@ -134,6 +134,12 @@ impl Expr {
         &self.src
     }
 
+    /// The compiled program, for tests and curiosity.
+    #[doc(hidden)]
+    pub fn dump(&self) -> String {
+        format!("depth {} {:?}", self.depth, self.code)
+    }
+
     /// Number of instructions after folding (for tests and curiosity).
     #[doc(hidden)]
     pub fn program_len(&self) -> usize {
@@ -269,6 +275,13 @@ mod tests {
         );
         let e = Expr::parse("dpoly(x, y, 0,0, 1,0, 1,1, 0,1)").unwrap();
         assert_eq!(e.program_len(), 3);
+    }
+
+    #[test]
+    fn compact_program() {
+        let e = Expr::parse("max(sqrt(x^2+y^2)-1, -(sqrt((x+0.4)^2+y^2)-0.55), -y)").unwrap();
+        assert_eq!(e.program_len(), 19, "{}", e.dump());
+        assert!(e.dump().starts_with("depth 3 "));
     }
 
     #[test]
