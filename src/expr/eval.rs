@@ -360,8 +360,12 @@ impl Num for Dual {
     }
     #[inline(always)]
     fn var(v: f64, i: usize) -> Self {
-        let mut d = [0.0; 3];
-        d[i] = 1.0;
+        // No dynamic index into `d`: that would pin the accumulator to memory.
+        let d = match i {
+            0 => [1.0, 0.0, 0.0],
+            1 => [0.0, 1.0, 0.0],
+            _ => [0.0, 0.0, 1.0],
+        };
         Dual { v, d }
     }
     fn abs(self) -> Self {
