@@ -1,1 +1,343 @@
 //! The expression language of the command line (x, y, z; arithmetic; the seed's distance helpers).
+//!
+//! Expressions are compiled once to a flat postfix program with constants folded, then
+//! evaluated without allocating, from any number of threads. Gradients come from the same
+//! program run on dual numbers, so they are analytic (no finite-difference step to tune).
+//!
+//! ```
+//! use trussmesh::expr::Expr;
+//! let d = Expr::parse("max(sqrt(x^2+y^2)-1, -y)").unwrap();
+//! assert_eq!(d.eval(0.0, 0.5, 0.0), -0.5);
+//! let (v, g) = d.eval_grad(2.0, 0.0, 0.0);
+//! assert_eq!((v, g), (1.0, [1.0, 0.0, 0.0]));
+//! assert!(Expr::parse("sqr(x)").is_err());
+//! ```
+//!
+//! Grammar, loosest first: `+ -`, `* /`, unary `-` and `+`, `^` (right-associative and
+//! tighter than a sign on its left, so `-x^2` is `-(x^2)`), then numbers, `x y z pi e`,
+//! parentheses and calls. Functions: `sqrt abs sin cos tan exp ln log log10 floor ceil`
+//! (`log` is the natural log), `pow atan2`, `min max` (one or more arguments) and the
+//! DistMesh helpers `dcircle dsphere drectangle dbox dpoly dunion ddiff dintersect`.
+
+mod compile;
+mod eval;
+mod lex;
+
+use std::fmt;
+
+use glam::{DVec2, DVec3};
+
+use crate::geometry::{Implicit2, Implicit3};
+use eval::{run_sized, Dual, Op};
+
+pub use compile::MAX_DEPTH;
+
+/// A parse error, located at the offending token.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExprError {
+    /// 1-based character column in the source.
+    pub column: usize,
+    /// What is wrong, naming the token, function or count involved.
+    pub message: String,
+}
+
+impl fmt::Display for ExprError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "column {}: {}", self.column, self.message)
+    }
+}
+
+impl std::error::Error for ExprError {}
+
+impl ExprError {
+    /// The source line and a caret under the error's column, for terminal output.
+    /// Long sources are cut to a window around the column.
+    pub fn render(&self, src: &str) -> String {
+        const HALF: usize = 38;
+        let chars: Vec<char> = src
+            .chars()
+            .map(|c| {
+                if c.is_whitespace() || c.is_control() {
+                    ' '
+                } else {
+                    c
+                }
+            })
+            .collect();
+        let col = self.column.clamp(1, chars.len() + 1) - 1;
+        let (from, to) = if chars.len() <= 2 * HALF {
+            (0, chars.len())
+        } else {
+            let from = col.saturating_sub(HALF);
+            (from, (from + 2 * HALF).min(chars.len()))
+        };
+        let mut line = String::new();
+        let mut caret = col - from;
+        if from > 0 {
+            line.push_str("...");
+            caret += 3;
+        }
+        line.extend(&chars[from..to]);
+        if to < chars.len() {
+            line.push_str("...");
+        }
+        format!("{line}\n{}^", " ".repeat(caret))
+    }
+}
+
+/// A compiled expression in x, y, z.
+#[derive(Clone, Debug)]
+pub struct Expr {
+    src: String,
+    code: Box<[Op]>,
+    polys: Box<[f64]>,
+    ranges: Box<[(u32, u32)]>,
+    depth: usize,
+    uses_z: bool,
+}
+
+impl Expr {
+    /// Parses and compiles `src`.
+    pub fn parse(src: &str) -> Result<Expr, ExprError> {
+        let p = compile::compile(src)?;
+        Ok(Expr {
+            src: src.to_owned(),
+            code: p.code.into(),
+            polys: p.polys.into(),
+            ranges: p.ranges.into(),
+            depth: p.depth,
+            uses_z: p.uses_z,
+        })
+    }
+
+    /// The value at (x, y, z).
+    #[inline]
+    pub fn eval(&self, x: f64, y: f64, z: f64) -> f64 {
+        run_sized::<f64>(&self.code, &self.polys, &self.ranges, [x, y, z], self.depth)
+    }
+
+    /// The value and its gradient (d/dx, d/dy, d/dz) at (x, y, z). The value is
+    /// identical to [`Expr::eval`]'s. At kinks (abs, min, max, the centre of a circle)
+    /// the gradient of the active branch, or zero, is returned.
+    pub fn eval_grad(&self, x: f64, y: f64, z: f64) -> (f64, [f64; 3]) {
+        let r = run_sized::<Dual>(&self.code, &self.polys, &self.ranges, [x, y, z], self.depth);
+        (r.v, r.d)
+    }
+
+    /// Whether the variable z appears (a 3-D expression).
+    pub fn uses_z(&self) -> bool {
+        self.uses_z
+    }
+
+    /// The source text this was compiled from.
+    pub fn source(&self) -> &str {
+        &self.src
+    }
+
+    /// The compiled program, for tests and curiosity.
+    #[doc(hidden)]
+    pub fn dump(&self) -> String {
+        format!("depth {} {:?}", self.depth, self.code)
+    }
+
+    /// Number of instructions after folding (for tests and curiosity).
+    #[doc(hidden)]
+    pub fn program_len(&self) -> usize {
+        self.code.len()
+    }
+}
+
+impl std::str::FromStr for Expr {
+    type Err = ExprError;
+    fn from_str(s: &str) -> Result<Expr, ExprError> {
+        Expr::parse(s)
+    }
+}
+
+/// An expression as a 2-D geometry, evaluated at z = 0, with the analytic gradient.
+#[derive(Clone, Debug)]
+pub struct ExprImplicit2 {
+    /// The expression.
+    pub expr: Expr,
+    /// Whether the caller vouches that the expression is a signed distance
+    /// (the mesher then projects in one step).
+    pub distance: bool,
+}
+
+impl ExprImplicit2 {
+    /// Wraps `expr`, not claimed to be a distance.
+    pub fn new(expr: Expr) -> Self {
+        ExprImplicit2 {
+            expr,
+            distance: false,
+        }
+    }
+}
+
+impl Implicit2 for ExprImplicit2 {
+    fn value(&self, p: DVec2) -> f64 {
+        self.expr.eval(p.x, p.y, 0.0)
+    }
+    fn gradient(&self, p: DVec2) -> DVec2 {
+        let (_, g) = self.expr.eval_grad(p.x, p.y, 0.0);
+        DVec2::new(g[0], g[1])
+    }
+    fn is_distance(&self) -> bool {
+        self.distance
+    }
+}
+
+/// An expression as a 3-D geometry, with the analytic gradient.
+#[derive(Clone, Debug)]
+pub struct ExprImplicit3 {
+    /// The expression.
+    pub expr: Expr,
+    /// Whether the caller vouches that the expression is a signed distance.
+    pub distance: bool,
+}
+
+impl ExprImplicit3 {
+    /// Wraps `expr`, not claimed to be a distance.
+    pub fn new(expr: Expr) -> Self {
+        ExprImplicit3 {
+            expr,
+            distance: false,
+        }
+    }
+}
+
+impl Implicit3 for ExprImplicit3 {
+    fn value(&self, p: DVec3) -> f64 {
+        self.expr.eval(p.x, p.y, p.z)
+    }
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        let (_, g) = self.expr.eval_grad(p.x, p.y, p.z);
+        DVec3::from_array(g)
+    }
+    fn is_distance(&self) -> bool {
+        self.distance
+    }
+}
+
+/// Fuzz entry: parse arbitrary bytes; if they compile, evaluate at a few points and check
+/// that nothing panics and that `eval` and `eval_grad` agree on the value.
+#[doc(hidden)]
+pub fn fuzz_parse(data: &[u8]) {
+    let src = String::from_utf8_lossy(data);
+    match Expr::parse(&src) {
+        Ok(e) => {
+            assert_eq!(e.source(), &*src);
+            const PTS: [[f64; 3]; 6] = [
+                [0.0, 0.0, 0.0],
+                [0.3, -0.7, 1.1],
+                [-2.5, 4.0, -0.25],
+                [1.0, 1.0, 1.0],
+                [1e6, -1e-6, 3.0],
+                [f64::NAN, 0.5, f64::INFINITY],
+            ];
+            for [x, y, z] in PTS {
+                let v = e.eval(x, y, z);
+                let (w, _) = e.eval_grad(x, y, z);
+                assert!(
+                    v == w || (v.is_nan() && w.is_nan()),
+                    "eval {v} != eval_grad {w} at ({x}, {y}, {z}) for {src:?}"
+                );
+            }
+        }
+        Err(err) => {
+            let n = src.chars().count();
+            assert!(
+                err.column >= 1 && err.column <= n + 1,
+                "column {} out of range",
+                err.column
+            );
+            let _ = err.to_string();
+            let _ = err.render(&src);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ev(s: &str) -> f64 {
+        Expr::parse(s).unwrap().eval(0.0, 0.0, 0.0)
+    }
+
+    #[test]
+    fn folds_constants() {
+        let e = Expr::parse("2*pi*(1+3)^2 - sqrt(16)").unwrap();
+        assert_eq!(e.program_len(), 1);
+        assert_eq!(
+            e.eval(0.0, 0.0, 0.0),
+            2.0 * std::f64::consts::PI * 16.0 - 4.0
+        );
+        let e = Expr::parse("dpoly(x, y, 0,0, 1,0, 1,1, 0,1)").unwrap();
+        assert_eq!(e.program_len(), 3);
+    }
+
+    #[test]
+    fn compact_program() {
+        let e = Expr::parse("max(sqrt(x^2+y^2)-1, -(sqrt((x+0.4)^2+y^2)-0.55), -y)").unwrap();
+        assert_eq!(e.program_len(), 19, "{}", e.dump());
+        assert!(e.dump().starts_with("depth 3 "));
+    }
+
+    #[test]
+    fn precedence() {
+        assert_eq!(ev("-2^2"), -4.0);
+        assert_eq!(ev("2^3^2"), 512.0);
+        assert_eq!(ev("2^-1"), 0.5);
+        assert_eq!(ev("1-2-3"), -4.0);
+        assert_eq!(ev("8/4/2"), 1.0);
+        assert_eq!(ev("--3"), 3.0);
+    }
+
+    #[test]
+    fn sign_absorption_is_exact() {
+        let e = Expr::parse("-(x+0.4)").unwrap();
+        assert_eq!(e.eval(0.1, 0.0, 0.0), -(0.1 + 0.4));
+        let e = Expr::parse("-(0.55-x)").unwrap();
+        assert_eq!(e.eval(0.1, 0.0, 0.0), -(0.55 - 0.1));
+        let e = Expr::parse("-(-x)").unwrap();
+        assert_eq!(e.program_len(), 1);
+    }
+
+    #[test]
+    fn deep_program_uses_scratch() {
+        let mut s = String::from("x");
+        for _ in 0..100 {
+            s = format!("1+x*({s})");
+        }
+        let e = Expr::parse(&s).unwrap();
+        let v = e.eval(0.5, 0.0, 0.0);
+        assert!((v - 2.0).abs() < 1e-12, "{v}");
+        // A non-constant polygon needs its vertices on the stack.
+        let e = Expr::parse("dpoly(x,y, 0,0, 1+z,0, 1,1, 0,1, -1,x, -2,3, -3,2, -4,1, -5,0, -6,-1, -7,-2, -8,-3, -9,-4, -10,-5, -11,-6, -12,-7, -13,-8)").unwrap();
+        let (v, _) = e.eval_grad(0.5, 0.5, 0.0);
+        assert_eq!(v, e.eval(0.5, 0.5, 0.0));
+    }
+
+    #[test]
+    fn threads() {
+        let e = std::sync::Arc::new(Expr::parse("dcircle(x,y,0,0,1)").unwrap());
+        let hs: Vec<_> = (0..4)
+            .map(|i| {
+                let e = e.clone();
+                std::thread::spawn(move || e.eval(i as f64, 0.0, 0.0))
+            })
+            .collect();
+        for (i, h) in hs.into_iter().enumerate() {
+            assert_eq!(h.join().unwrap(), i as f64 - 1.0);
+        }
+    }
+
+    #[test]
+    fn render_caret() {
+        let err = Expr::parse("1 + sqr(x)").unwrap_err();
+        assert_eq!(err.column, 5);
+        assert_eq!(err.to_string(), "column 5: unknown function 'sqr'");
+        assert_eq!(err.render("1 + sqr(x)"), "1 + sqr(x)\n    ^");
+    }
+}
