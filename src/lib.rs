@@ -15,6 +15,7 @@ pub mod error;
 pub mod expr;
 pub mod geometry;
 pub mod io;
+pub mod mesher;
 pub mod predicates;
 pub mod quality;
 pub mod topology;

@@ -1,0 +1,33 @@
+//! The meshing pipelines: implicit geometry and size function in, mesh and report out.
+
+mod options;
+mod report;
+
+pub use options::{Options2, ProgressFn, SizeFn2, Strategy};
+pub use report::{QualityStats, Report};
+
+use crate::geometry::Implicit2;
+use crate::topology::TriMesh;
+use glam::DVec2;
+
+/// A 2-D mesh and the report of the run that made it.
+#[derive(Clone, Debug)]
+pub struct MeshOutput2 {
+    /// The triangle mesh (boundary vertices tagged `Boundary`, fixed points `Fixed`).
+    pub mesh: TriMesh<DVec2>,
+    /// Iterations, time, operation counts, quality statistics and why it stopped.
+    pub report: Report,
+}
+
+/// Meshes {d < 0} in 2-D.
+///
+/// ```
+/// use trussmesh::geometry::Circle;
+/// use trussmesh::mesher::{mesh_2d, Options2};
+/// let out = mesh_2d(&Circle::new([0.0, 0.0], 1.0), &Options2::uniform(0.2, [-1.0, -1.0], [1.0, 1.0])).unwrap();
+/// assert!(out.report.quality.q_min > 0.7);
+/// ```
+pub fn mesh_2d(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, crate::Error> {
+    let _ = (domain, opts);
+    Err(crate::Error::Internal("not yet".into()))
+}

@@ -1,0 +1,140 @@
+//! Options of the 2-D mesher, with their defaults.
+
+use crate::geometry::project::Projection;
+use glam::DVec2;
+use std::sync::Arc;
+
+/// A relative size function h(x) (only ratios matter; h0 sets the scale).
+pub type SizeFn2 = Arc<dyn Fn(DVec2) -> f64 + Send + Sync>;
+
+/// Called with (iteration, iteration cap) as the run goes.
+pub type ProgressFn = Arc<dyn Fn(usize, usize) + Send + Sync>;
+
+/// How connectivity is maintained.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Strategy {
+    /// Local flips, splits and collapses on the half-edge engine (trussmesh's way).
+    #[default]
+    Local,
+    /// The seed's classic algorithm: rejection-sampled grid start and global Delaunay
+    /// retriangulation (through spade) whenever nodes moved far; the reference to beat.
+    GlobalDelaunay,
+}
+
+/// Options of [`crate::mesher::mesh_2d`].
+#[derive(Clone)]
+pub struct Options2 {
+    /// Initial edge length h0 (the absolute scale of the relative size h).
+    pub h0: f64,
+    /// Bounding box (min, max) that contains the domain.
+    pub bbox: [DVec2; 2],
+    /// Relative size h(x); `None` is uniform.
+    pub size: Option<SizeFn2>,
+    /// Points that become fixed mesh vertices.
+    pub fixed: Vec<DVec2>,
+    /// Iteration cap; the best mesh so far is returned with `converged == false`.
+    pub max_iter: usize,
+    /// Seed for every random choice (same input and seed, same output bit for bit).
+    pub seed: u64,
+    /// How boundary nodes are projected onto d = 0.
+    pub projection: Projection,
+    /// Connectivity strategy.
+    pub strategy: Strategy,
+    /// Refuse to start when the estimated element count passes this.
+    pub max_elements: u64,
+    /// Internal pressure: unstretched bar length over the actual mean (seed eq. 2.6).
+    pub fscale: f64,
+    /// Forward Euler time step (seed eq. 2.4).
+    pub deltat: f64,
+    /// Stop when every interior node moves less than dptol h0 in a step (seed).
+    pub dptol: f64,
+    /// Progress callback.
+    pub progress: Option<ProgressFn>,
+}
+
+impl std::fmt::Debug for Options2 {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Options2")
+            .field("h0", &self.h0)
+            .field("bbox", &self.bbox)
+            .field("size", &self.size.as_ref().map(|_| "fn"))
+            .field("fixed", &self.fixed)
+            .field("max_iter", &self.max_iter)
+            .field("seed", &self.seed)
+            .field("projection", &self.projection)
+            .field("strategy", &self.strategy)
+            .finish()
+    }
+}
+
+impl Options2 {
+    /// Default iteration cap.
+    pub const DEFAULT_MAX_ITER: usize = 1000;
+    /// Default element limit.
+    pub const DEFAULT_MAX_ELEMENTS: u64 = 50_000_000;
+    /// Default internal pressure (seed: 1.2 in 2-D).
+    pub const DEFAULT_FSCALE: f64 = 1.2;
+    /// Default time step (seed: 0.2).
+    pub const DEFAULT_DELTAT: f64 = 0.2;
+    /// Default movement tolerance (seed: 0.001).
+    pub const DEFAULT_DPTOL: f64 = 0.001;
+
+    /// Uniform size h0 in the box [min, max], every other option at its default.
+    pub fn uniform(h0: f64, min: [f64; 2], max: [f64; 2]) -> Self {
+        Options2 {
+            h0,
+            bbox: [DVec2::from(min), DVec2::from(max)],
+            size: None,
+            fixed: Vec::new(),
+            max_iter: Self::DEFAULT_MAX_ITER,
+            seed: 0,
+            projection: Projection::Auto,
+            strategy: Strategy::Local,
+            max_elements: Self::DEFAULT_MAX_ELEMENTS,
+            fscale: Self::DEFAULT_FSCALE,
+            deltat: Self::DEFAULT_DELTAT,
+            dptol: Self::DEFAULT_DPTOL,
+            progress: None,
+        }
+    }
+    /// Sets the relative size function.
+    pub fn with_size(mut self, h: impl Fn(DVec2) -> f64 + Send + Sync + 'static) -> Self {
+        self.size = Some(Arc::new(h));
+        self
+    }
+    /// Sets the fixed points.
+    pub fn with_fixed(mut self, pts: impl IntoIterator<Item = [f64; 2]>) -> Self {
+        self.fixed = pts.into_iter().map(DVec2::from).collect();
+        self
+    }
+    /// Sets the iteration cap.
+    pub fn with_max_iter(mut self, n: usize) -> Self {
+        self.max_iter = n;
+        self
+    }
+    /// Sets the seed.
+    pub fn with_seed(mut self, s: u64) -> Self {
+        self.seed = s;
+        self
+    }
+    /// Sets the projection method.
+    pub fn with_projection(mut self, p: Projection) -> Self {
+        self.projection = p;
+        self
+    }
+    /// Sets the connectivity strategy.
+    pub fn with_strategy(mut self, s: Strategy) -> Self {
+        self.strategy = s;
+        self
+    }
+    /// Sets the element limit.
+    pub fn with_max_elements(mut self, n: u64) -> Self {
+        self.max_elements = n;
+        self
+    }
+    /// Sets the progress callback.
+    pub fn with_progress(mut self, f: impl Fn(usize, usize) + Send + Sync + 'static) -> Self {
+        self.progress = Some(Arc::new(f));
+        self
+    }
+}

@@ -1,0 +1,76 @@
+//! What a meshing run reports.
+
+use crate::topology::{MeshPoint, TriMesh};
+
+/// Quality statistics of a triangle mesh.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct QualityStats {
+    /// Number of triangles.
+    pub triangles: usize,
+    /// Number of vertices.
+    pub vertices: usize,
+    /// Minimum q = 2 r_in / r_out.
+    pub q_min: f64,
+    /// Mean q.
+    pub q_mean: f64,
+    /// Smallest angle in degrees.
+    pub angle_min: f64,
+    /// Largest angle in degrees.
+    pub angle_max: f64,
+}
+
+impl QualityStats {
+    /// The statistics of a mesh.
+    pub fn of<P: MeshPoint>(m: &TriMesh<P>) -> Self {
+        let mut s = QualityStats { triangles: m.num_faces(), vertices: m.num_vertices(), q_min: 1.0, angle_min: 180.0, ..Default::default() };
+        let mut sum = 0.0;
+        for f in m.face_ids() {
+            let [a, b, c] = m.face_points(f);
+            let (la, lb, lc) = (b.dist(c), c.dist(a), a.dist(b));
+            let q = crate::quality::triangle_q_from_lengths(la, lb, lc);
+            sum += q;
+            s.q_min = s.q_min.min(q);
+            for ang in crate::quality::triangle_angles_deg(la, lb, lc) {
+                s.angle_min = s.angle_min.min(ang);
+                s.angle_max = s.angle_max.max(ang);
+            }
+        }
+        if s.triangles > 0 {
+            s.q_mean = sum / s.triangles as f64;
+        } else {
+            s.q_min = 0.0;
+        }
+        s
+    }
+}
+
+/// The report of a meshing run.
+#[derive(Clone, Debug, Default)]
+pub struct Report {
+    /// Force iterations done.
+    pub iterations: usize,
+    /// True when the movement tolerance or the quality plateau ended the run; false when the
+    /// iteration cap did (the mesh is still valid: the best found).
+    pub converged: bool,
+    /// Why the run stopped.
+    pub stop_reason: String,
+    /// Wall time in seconds.
+    pub seconds: f64,
+    /// Edge flips done.
+    pub flips: usize,
+    /// Edge splits done.
+    pub splits: usize,
+    /// Edge collapses done.
+    pub collapses: usize,
+    /// Quality of the result.
+    pub quality: QualityStats,
+}
+
+impl std::fmt::Display for Report {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let q = &self.quality;
+        writeln!(f, "{} vertices, {} triangles in {:.3} s, {} iterations ({})", q.vertices, q.triangles, self.seconds, self.iterations, self.stop_reason)?;
+        writeln!(f, "q min {:.4}, q mean {:.4}, angles {:.1} to {:.1} degrees", q.q_min, q.q_mean, q.angle_min, q.angle_max)?;
+        write!(f, "{} flips, {} splits, {} collapses", self.flips, self.splits, self.collapses)
+    }
+}
