@@ -106,6 +106,10 @@ pub enum Op {
     Relocate(u16, i8, i8),
     /// Lawson flips to Delaunay.
     Delaunay,
+    /// Remove the triangle on the k-th half-edge if it is a boundary half-edge.
+    RemoveBoundaryTriangle(u16),
+    /// Fill the ear on the k-th half-edge if it is a boundary half-edge.
+    FillEar(u16),
 }
 
 /// Applies one [`Op`] to a planar mesh.
@@ -148,6 +152,14 @@ pub fn apply_op(m: &mut TriMesh<DVec2>, op: Op) -> Result<(), Refusal> {
         Op::Delaunay => {
             m.make_delaunay();
             Ok(())
+        }
+        Op::RemoveBoundaryTriangle(k) => {
+            let h = nth(m.half_edge_ids(), 2 * m.num_edges(), k).ok_or(Refusal::StaleKey)?;
+            m.remove_boundary_triangle(h).map(|_| ())
+        }
+        Op::FillEar(k) => {
+            let h = nth(m.half_edge_ids(), 2 * m.num_edges(), k).ok_or(Refusal::StaleKey)?;
+            m.fill_boundary_ear(h, 0).map(|_| ())
         }
     }
 }

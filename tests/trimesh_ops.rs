@@ -223,6 +223,8 @@ fn op_strategy() -> impl Strategy<Value = Op> {
         (any::<u16>(), any::<u8>(), any::<u8>()).prop_map(|(k, u, v)| Op::Insert(k, u, v)),
         (any::<u16>(), any::<i8>(), any::<i8>()).prop_map(|(k, x, y)| Op::Relocate(k, x, y)),
         Just(Op::Delaunay),
+        any::<u16>().prop_map(Op::RemoveBoundaryTriangle),
+        any::<u16>().prop_map(Op::FillEar),
     ]
 }
 

@@ -295,3 +295,29 @@ pub fn fuzz_read_all(data: &[u8]) {
         }
     }
 }
+
+impl MeshData {
+    /// The plain-array form of a planar triangle mesh (face labels become subdomains when any
+    /// is non-zero).
+    pub fn from_trimesh2(m: &crate::topology::TriMesh<glam::DVec2>) -> MeshData {
+        let (pts, tris, labels, _) = m.to_arrays();
+        MeshData {
+            dim: 2,
+            cell_type: CellType::Triangle,
+            points: pts.iter().map(|p| [p.x, p.y, 0.0]).collect(),
+            cells: tris.iter().flatten().copied().collect(),
+            subdomain: labels.iter().any(|&l| l != 0).then(|| labels.iter().map(|&l| l as i32).collect()),
+        }
+    }
+    /// The plain-array form of a surface triangle mesh.
+    pub fn from_trimesh3(m: &crate::topology::TriMesh<glam::DVec3>) -> MeshData {
+        let (pts, tris, labels, _) = m.to_arrays();
+        MeshData {
+            dim: 3,
+            cell_type: CellType::Triangle,
+            points: pts.iter().map(|p| [p.x, p.y, p.z]).collect(),
+            cells: tris.iter().flatten().copied().collect(),
+            subdomain: labels.iter().any(|&l| l != 0).then(|| labels.iter().map(|&l| l as i32).collect()),
+        }
+    }
+}

@@ -1,10 +1,13 @@
 //! The meshing pipelines: implicit geometry and size function in, mesh and report out.
 
+mod classic2d;
+mod input;
+mod local2d;
 mod options;
 mod report;
 
 pub use options::{Options2, ProgressFn, SizeFn2, Strategy};
-pub use report::{QualityStats, Report};
+pub use report::{area, boundary_deviation, size_deviation, QualityStats, Report};
 
 use crate::geometry::Implicit2;
 use crate::topology::TriMesh;
@@ -28,6 +31,8 @@ pub struct MeshOutput2 {
 /// assert!(out.report.quality.q_min > 0.7);
 /// ```
 pub fn mesh_2d(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, crate::Error> {
-    let _ = (domain, opts);
-    Err(crate::Error::Internal("not yet".into()))
+    match opts.strategy {
+        Strategy::Local => local2d::run(domain, opts),
+        Strategy::GlobalDelaunay => classic2d::run(domain, opts),
+    }
 }

@@ -178,7 +178,7 @@ impl TriMesh<DVec2> {
 
     /// Lawson flips of the link edges of a freshly inserted vertex: each flip makes two new link
     /// edges (Guibas-Stolfi insertion).
-    fn legalize_around(&mut self, v: VertexId, mut stack: Vec<HalfEdgeId>) {
+    pub(crate) fn legalize_around(&mut self, v: VertexId, mut stack: Vec<HalfEdgeId>) {
         while let Some(h) = stack.pop() {
             let t = self.twin(h);
             if self.face_of(t).is_none() || self.is_constrained_edge(h) {

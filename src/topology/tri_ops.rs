@@ -626,3 +626,52 @@ impl<P: MeshPoint> TriMesh<P> {
         Ok(f)
     }
 }
+
+impl<P: MeshPoint> TriMesh<P> {
+    /// Removes the triangle across the boundary half-edge `t` when its apex is an interior
+    /// vertex, which then joins the boundary (the inverse of [`TriMesh::fill_boundary_ear`]).
+    ///
+    /// ```text
+    ///        v                    v
+    ///       / \                  / \
+    ///      / f \       ==>      /   \        v becomes a boundary vertex
+    ///     a-----b              a     b
+    ///   ----t---->  boundary
+    /// ```
+    pub fn remove_boundary_triangle(&mut self, t: HalfEdgeId) -> Result<VertexId, Refusal> {
+        self.live_he(t)?;
+        if self.face_of(t).is_some() {
+            return Err(Refusal::BoundaryEdge);
+        }
+        let h = self.twin(t);
+        let f = self.face_of(h).ok_or(Refusal::BoundaryEdge)?;
+        if self.faces.len() <= 1 {
+            return Err(Refusal::TooSmall);
+        }
+        let h_bv = self.next(h);
+        let h_va = self.next(h_bv);
+        let v = self.origin(h_va);
+        // The apex must be interior, or it would get two boundary fans.
+        if self.is_boundary_vertex(v) {
+            return Err(Refusal::LinkCondition);
+        }
+        let (a, b) = (self.origin(h), self.origin(t));
+        let tp = self.prev(t);
+        let tn = self.next(t);
+        self.half_edges[tp].next = h_bv;
+        self.half_edges[h_bv].next = h_va;
+        self.half_edges[h_bv].face = None;
+        self.half_edges[h_va].next = tn;
+        self.half_edges[h_va].face = None;
+        self.half_edges.remove(h);
+        self.half_edges.remove(t);
+        self.faces.remove(f);
+        self.vertices[v].out = h_va;
+        self.vertices[b].out = h_bv;
+        if self.vertices[a].out == h {
+            self.vertices[a].out = tn;
+        }
+        self.fix_out(a);
+        Ok(v)
+    }
+}

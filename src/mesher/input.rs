@@ -1,0 +1,118 @@
+//! Input checks shared by the 2-D strategies: every bad input is a typed error, found before
+//! anything large is allocated.
+
+use super::Options2;
+use crate::geometry::Implicit2;
+use crate::Error;
+use glam::DVec2;
+
+/// What the checks learned about the domain.
+pub(crate) struct DomainSurvey {
+    /// Estimated triangle count at the requested sizes.
+    pub estimated_triangles: f64,
+    /// Estimated area of the domain.
+    pub area: f64,
+}
+
+/// Evaluates d, failing on a non-finite value.
+#[inline]
+pub(crate) fn eval_d(domain: &dyn Implicit2, p: DVec2) -> Result<f64, Error> {
+    let d = domain.value(p);
+    if d.is_finite() {
+        Ok(d)
+    } else {
+        Err(Error::NonFinite { what: "the distance function", value: d, at: [p.x, p.y, 0.0] })
+    }
+}
+
+/// Evaluates the relative size h, failing on a non-finite or non-positive value.
+#[inline]
+pub(crate) fn eval_h(opts: &Options2, p: DVec2) -> Result<f64, Error> {
+    match &opts.size {
+        None => Ok(1.0),
+        Some(h) => {
+            let v = h(p);
+            if !v.is_finite() {
+                Err(Error::NonFinite { what: "the size function", value: v, at: [p.x, p.y, 0.0] })
+            } else if v <= 0.0 {
+                Err(Error::BadSize(format!("the size function is {v} at ({}, {}); it must be positive", p.x, p.y)))
+            } else {
+                Ok(v)
+            }
+        }
+    }
+}
+
+/// Checks h0, the box, the fixed points, d and h on a sample grid, and the element estimate.
+pub(crate) fn survey(domain: &dyn Implicit2, opts: &Options2) -> Result<DomainSurvey, Error> {
+    let h0 = opts.h0;
+    if !h0.is_finite() || h0 <= 0.0 {
+        return Err(Error::BadSize(format!("h0 must be positive and finite, got {h0}")));
+    }
+    let [lo, hi] = opts.bbox;
+    if !lo.is_finite() || !hi.is_finite() {
+        return Err(Error::BadBox(format!("the box ({}, {}) - ({}, {}) is not finite", lo.x, lo.y, hi.x, hi.y)));
+    }
+    if !(hi.x > lo.x && hi.y > lo.y) {
+        return Err(Error::BadBox(format!(
+            "the box ({}, {}) - ({}, {}) is empty or inverted: each max must exceed its min",
+            lo.x, lo.y, hi.x, hi.y
+        )));
+    }
+    let ext = hi - lo;
+    for p in &opts.fixed {
+        if !p.is_finite() {
+            return Err(Error::BadCoordinate { what: "fixed point", value: if p.x.is_finite() { p.y } else { p.x } });
+        }
+        if p.x < lo.x || p.y < lo.y || p.x > hi.x || p.y > hi.y {
+            return Err(Error::Invalid(format!("fixed point ({}, {}) lies outside the box", p.x, p.y)));
+        }
+    }
+    // Sample at about h0 (at most 512 per side): d and h must be finite, some point inside.
+    let nx = ((ext.x / h0).ceil() as usize + 1).clamp(8, 512);
+    let ny = ((ext.y / h0).ceil() as usize + 1).clamp(8, 512);
+    let dx = ext.x / (nx - 1) as f64;
+    let dy = ext.y / (ny - 1) as f64;
+    let mut inside = 0usize;
+    let mut density = 0.0;
+    for j in 0..ny {
+        for i in 0..nx {
+            let p = lo + DVec2::new(i as f64 * dx, j as f64 * dy);
+            let d = eval_d(domain, p)?;
+            let h = eval_h(opts, p)?;
+            if d < 0.0 {
+                inside += 1;
+                density += 1.0 / (h * h);
+            }
+        }
+    }
+    let cell = dx * dy;
+    if inside == 0 {
+        // Try the centre of each cell once more before giving up (thin domains).
+        let mut found = false;
+        'outer: for j in 0..ny - 1 {
+            for i in 0..nx - 1 {
+                let p = lo + DVec2::new((i as f64 + 0.5) * dx, (j as f64 + 0.5) * dy);
+                if eval_d(domain, p)? < 0.0 {
+                    found = true;
+                    break 'outer;
+                }
+            }
+        }
+        if !found {
+            return Err(Error::EmptyDomain(format!(
+                "the distance function is non-negative at every sample of the box ({}, {}) - ({}, {})",
+                lo.x, lo.y, hi.x, hi.y
+            )));
+        }
+        inside = 1;
+        density = 1.0;
+    }
+    let area = inside as f64 * cell;
+    // Equilateral triangles of side h0 h have area sqrt(3)/4 (h0 h)^2.
+    let estimated_triangles = density * cell / (3f64.sqrt() / 4.0 * h0 * h0);
+    if estimated_triangles > opts.max_elements as f64 {
+        return Err(Error::TooManyElements { estimated: estimated_triangles as u64, limit: opts.max_elements });
+    }
+    Ok(DomainSurvey { estimated_triangles, area })
+}

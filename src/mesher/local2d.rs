@@ -1,0 +1,860 @@
+//! The 2-D mesher on the local engine (seed chapters 2 and 3): initial mesh by refining one
+//! enclosing triangle, then force equilibrium in the truss with boundary projection, local
+//! Delaunay flips around moved nodes, and density control by splits and collapses.
+
+use super::input::{eval_d, eval_h, survey};
+use super::{MeshOutput2, Options2, QualityStats, Report};
+use crate::geometry::project::{project2, ProjectError, Projection};
+use crate::geometry::Implicit2;
+use crate::predicates::{orient2d, Sign};
+use crate::topology::{HalfEdgeId, Level, TriMesh, VertexId, VertexTag};
+use crate::Error;
+use glam::DVec2;
+use rayon::prelude::*;
+use slotmap::SecondaryMap;
+use std::time::Instant;
+
+/// Initial refinement splits edges longer than this many target lengths (between one lattice
+/// level and the next).
+const INIT_SPLIT: f64 = 1.5;
+/// Density control splits edges longer than this many target lengths (hysteresis band).
+const SPLIT_ABOVE: f64 = 2.0;
+/// Density control collapses edges shorter than this many target lengths.
+const COLLAPSE_BELOW: f64 = 0.4;
+/// Boundary edges longer than this many current mean lengths are split.
+const BOUNDARY_SPLIT_ABOVE: f64 = 1.6;
+/// Boundary edges shorter than this many current mean lengths are collapsed.
+const BOUNDARY_COLLAPSE_BELOW: f64 = 0.6;
+/// Triangles below this quality are repaired by collapsing their shortest edge.
+const Q_REPAIR: f64 = 0.02;
+/// Nodes moved farther than this many local sizes since their last check get their edges
+/// re-checked for the Delaunay property (the seed's ttol, applied per node).
+const TTOL: f64 = 0.1;
+/// Density control runs every this many iterations.
+const DENSITY_EVERY: usize = 10;
+/// Density control stops after this many iterations, so that the forces settle.
+const DENSITY_UNTIL: usize = usize::MAX;
+/// Chunk size of the deterministic parallel loops.
+const CHUNK: usize = 4096;
+
+/// Vertex kinds in the compact arrays.
+const INTERIOR: u8 = 0;
+const BOUNDARY: u8 = 1;
+const FIXED: u8 = 2;
+
+struct Ctx<'a> {
+    domain: &'a dyn Implicit2,
+    opts: &'a Options2,
+    projection: Projection,
+    geps: f64,
+    report: Report,
+    left: usize,
+    joined: usize,
+}
+
+impl Ctx<'_> {
+    fn h(&self, p: DVec2) -> Result<f64, Error> {
+        eval_h(self.opts, p)
+    }
+    fn d(&self, p: DVec2) -> Result<f64, Error> {
+        eval_d(self.domain, p)
+    }
+    /// Projects onto d = 0; `Ok(None)` when the projection does not converge (keep the point).
+    fn project(&self, p: DVec2) -> Result<Option<DVec2>, Error> {
+        match project2(self.domain, p, self.projection, 1e-9 * self.opts.h0, 20) {
+            Ok(q) => Ok(Some(q)),
+            Err(ProjectError::NonFinite { value }) => Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, 0.0] }),
+            Err(_) => Ok(None),
+        }
+    }
+    /// Approximate distance: d itself for distances, d / |grad d| otherwise.
+    fn approx_dist(&self, p: DVec2) -> Result<f64, Error> {
+        let d = self.d(p)?;
+        if self.domain.is_distance() {
+            Ok(d)
+        } else {
+            let g = self.domain.gradient(p).length();
+            Ok(if g > 0.0 && g.is_finite() { d / g } else { d })
+        }
+    }
+}
+
+/// Runs the local strategy.
+pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, Error> {
+    let t0 = Instant::now();
+    let survey = survey(domain, opts)?;
+    let projection = match opts.projection {
+        Projection::Auto if domain.is_distance() => Projection::Exact,
+        Projection::Auto => Projection::FirstOrder,
+        p => p,
+    };
+    let mut ctx = Ctx { domain, opts, projection, geps: 1e-3 * opts.h0, report: Report::default(), left: 0, joined: 0 };
+    let mut mesh = initial_mesh(&mut ctx, survey.estimated_triangles)?;
+    equilibrium(&mut ctx, &mut mesh)?;
+    if let Err(e) = mesh.validate(Level::Geometry) {
+        return Err(Error::Internal(format!("the finished mesh is invalid: {e}")));
+    }
+    let mut report = ctx.report;
+    report.seconds = t0.elapsed().as_secs_f64();
+    report.quality = QualityStats::of(&mesh);
+    let _ = survey.area;
+    Ok(MeshOutput2 { mesh, report })
+}
+
+// ============================ initial mesh ============================
+
+/// Seed 3.3.3: one large triangle around the box, refined by splitting long edges (longest
+/// relative to h first) with Delaunay flips, skipping edges whose triangles are certainly
+/// outside; then triangles with an outside centroid are dropped.
+fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
+    let opts = ctx.opts;
+    let [lo, hi] = opts.bbox;
+    let c = (lo + hi) * 0.5;
+    let r_in = 0.5 * (hi - lo).length() * 1.05;
+    // Side h0 2^k, the smallest that holds the box: uniform refinement then lands exactly on
+    // the equilateral lattice of side h0 (edge midpoints of one level are the next level's
+    // lattice points), the best start the forces can have.
+    let side_min = 2.0 * 3f64.sqrt() * r_in;
+    let side = opts.h0 * 2f64.powi((side_min / opts.h0).log2().ceil().max(0.0) as i32);
+    let r_out = side / 3f64.sqrt();
+    let s: Vec<DVec2> = (0..3)
+        .map(|k| {
+            let a = std::f64::consts::FRAC_PI_2 + k as f64 * std::f64::consts::TAU / 3.0;
+            c + r_out * DVec2::new(a.cos(), a.sin())
+        })
+        .collect();
+    let (mut m, _) = TriMesh::from_arrays(&s, &[[0, 1, 2]]).map_err(|e| Error::Internal(e.to_string()))?;
+    // Fixed points first, exactly where given.
+    let mut hint = m.face_ids().next().expect("one face");
+    for p in &opts.fixed {
+        if ctx.approx_dist(*p)? > ctx.geps {
+            return Err(Error::Invalid(format!("fixed point ({}, {}) lies outside the domain", p.x, p.y)));
+        }
+        let (v, f) = m.insert_delaunay(*p, hint).ok_or_else(|| Error::Internal("fixed point outside the enclosing triangle".into()))?;
+        m.set_tag(v, VertexTag::Fixed);
+        hint = f;
+    }
+    // Rounds of red refinement: every edge longer than its target (and not certainly
+    // outside) is split at its midpoint, then Lawson flips restore Delaunay. On a uniform
+    // region the midpoints of one lattice level are exactly the next level's lattice.
+    let cap = (8.0 * estimate + 10_000.0) as usize;
+    loop {
+        let mut todo: Vec<(VertexId, VertexId)> = Vec::new();
+        for h in m.edge_ids() {
+            let (a, b) = (m.origin(h), m.dest(h));
+            let (pa, pb) = (m.pos(a), m.pos(b));
+            if pa.distance(pb) > opts.h0 * ctx.h((pa + pb) * 0.5)? * INIT_SPLIT && !edge_certainly_outside(ctx, &m, h)? {
+                todo.push((a, b));
+            }
+        }
+        if todo.is_empty() {
+            break;
+        }
+        for (a, b) in todo {
+            if let Some(h) = m.find_half_edge(a, b) {
+                let mid = (m.pos(a) + m.pos(b)) * 0.5;
+                if let Ok(v) = m.split_edge(h, mid) {
+                    m.set_tag(v, VertexTag::Interior);
+                }
+            }
+        }
+        m.make_delaunay();
+        if m.num_vertices() > cap {
+            return Err(Error::Internal(format!("initial refinement passed {cap} vertices (estimate {estimate:.0} triangles)")));
+        }
+    }
+    carve(ctx, &m)
+}
+
+/// A face is certainly outside when its approximate distance at the centroid exceeds its
+/// longest edge (twice that for non-distance functions).
+fn face_certainly_outside(ctx: &Ctx, m: &TriMesh<DVec2>, f: crate::topology::FaceId) -> Result<bool, Error> {
+    let [a, b, c] = m.face_points(f);
+    let lmax = a.distance(b).max(b.distance(c)).max(c.distance(a));
+    let d = ctx.approx_dist((a + b + c) / 3.0)?;
+    let safety = if ctx.domain.is_distance() { 1.0 } else { 2.0 };
+    Ok(d > safety * lmax)
+}
+
+fn edge_certainly_outside(ctx: &Ctx, m: &TriMesh<DVec2>, h: HalfEdgeId) -> Result<bool, Error> {
+    for side in [h, m.twin(h)] {
+        if let Some(f) = m.face_of(side) {
+            if !face_certainly_outside(ctx, m, f)? {
+                return Ok(false);
+            }
+        }
+    }
+    Ok(true)
+}
+
+/// Keeps the triangles whose centroid is inside (d < -geps), repairs pinched vertices, and
+/// tags the boundary.
+fn carve(ctx: &Ctx, m: &TriMesh<DVec2>) -> Result<TriMesh<DVec2>, Error> {
+    let (points, tris, _, keys) = m.to_arrays();
+    // As the seed keeps only grid points with d < geps, keep the triangles whose three
+    // vertices are inside; the pressure then pushes the outer row onto the boundary.
+    let mut inside = vec![false; points.len()];
+    for (i, p) in points.iter().enumerate() {
+        inside[i] = ctx.d(*p)? < ctx.geps;
+    }
+    let mut keep: Vec<[usize; 3]> = Vec::with_capacity(tris.len());
+    for t in &tris {
+        if t.iter().all(|&i| inside[i]) {
+            keep.push(*t);
+        }
+    }
+    let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
+    // Pinched vertices (two fans) would break the manifold structure: drop the triangles of
+    // every fan but the largest, and repeat until none is left.
+    for _ in 0..64 {
+        let pinched = pinched_vertices(points.len(), &keep);
+        if pinched.is_empty() {
+            break;
+        }
+        keep = drop_small_fans(&keep, &pinched, points.len());
+    }
+    if keep.is_empty() {
+        return Err(Error::EmptyDomain("no triangle of the initial mesh has its centroid inside the domain: h0 is too large for it".into()));
+    }
+    // Compact and build.
+    let mut map = vec![usize::MAX; points.len()];
+    let mut pts = Vec::new();
+    let mut is_fixed = Vec::new();
+    for t in &keep {
+        for &i in t {
+            if map[i] == usize::MAX {
+                map[i] = pts.len();
+                pts.push(points[i]);
+                is_fixed.push(fixed[i]);
+            }
+        }
+    }
+    let tri: Vec<[usize; 3]> = keep.iter().map(|t| [map[t[0]], map[t[1]], map[t[2]]]).collect();
+    let (mut out, ids) = TriMesh::from_arrays(&pts, &tri).map_err(|e| Error::Internal(format!("carving the initial mesh: {e}")))?;
+    for (i, &v) in ids.iter().enumerate() {
+        let tag = if is_fixed[i] {
+            VertexTag::Fixed
+        } else if out.is_boundary_vertex(v) {
+            VertexTag::Boundary
+        } else {
+            VertexTag::Interior
+        };
+        out.set_tag(v, tag);
+    }
+    Ok(out)
+}
+
+/// Vertices with more than one boundary edge leaving them in a triangle list.
+fn pinched_vertices(n: usize, tris: &[[usize; 3]]) -> Vec<usize> {
+    let mut dir = std::collections::HashSet::with_capacity(tris.len() * 3);
+    for t in tris {
+        for k in 0..3 {
+            dir.insert((t[k], t[(k + 1) % 3]));
+        }
+    }
+    let mut count = vec![0u8; n];
+    for t in tris {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if !dir.contains(&(b, a)) {
+                // b -> a is a boundary half-edge leaving b.
+                count[b] = count[b].saturating_add(1);
+            }
+        }
+    }
+    (0..n).filter(|&i| count[i] > 1).collect()
+}
+
+/// For each pinched vertex keeps only its largest fan of triangles.
+fn drop_small_fans(tris: &[[usize; 3]], pinched: &[usize], n: usize) -> Vec<[usize; 3]> {
+    let mut is_pinched = vec![false; n];
+    for &v in pinched {
+        is_pinched[v] = true;
+    }
+    let mut drop = vec![false; tris.len()];
+    let mut around: std::collections::HashMap<usize, Vec<usize>> = std::collections::HashMap::new();
+    for (i, t) in tris.iter().enumerate() {
+        for &v in t {
+            if is_pinched[v] {
+                around.entry(v).or_default().push(i);
+            }
+        }
+    }
+    let mut vs: Vec<usize> = around.keys().copied().collect();
+    vs.sort_unstable();
+    for v in vs {
+        let fs = &around[&v];
+        // Union the triangles around v that share an edge at v.
+        let mut comp: Vec<usize> = (0..fs.len()).collect();
+        fn find(c: &mut [usize], i: usize) -> usize {
+            let mut r = i;
+            while c[r] != r {
+                r = c[r];
+            }
+            c[i] = r;
+            r
+        }
+        for i in 0..fs.len() {
+            for j in i + 1..fs.len() {
+                let (a, b) = (tris[fs[i]], tris[fs[j]]);
+                let shared = a.iter().filter(|&&x| x != v && b.contains(&x)).count();
+                if shared > 0 {
+                    let (ri, rj) = (find(&mut comp, i), find(&mut comp, j));
+                    comp[ri] = rj;
+                }
+            }
+        }
+        let mut sizes = std::collections::BTreeMap::new();
+        for i in 0..fs.len() {
+            *sizes.entry(find(&mut comp, i)).or_insert(0usize) += 1;
+        }
+        let best = sizes.iter().max_by_key(|(r, s)| (**s, std::cmp::Reverse(**r))).map(|(r, _)| *r).unwrap_or(0);
+        for i in 0..fs.len() {
+            if find(&mut comp, i) != best {
+                drop[fs[i]] = true;
+            }
+        }
+    }
+    tris.iter().zip(drop).filter(|(_, d)| !d).map(|(t, _)| *t).collect()
+}
+
+// ============================ force equilibrium ============================
+
+/// Compact arrays of the mesh for the force loop, rebuilt when the topology changes.
+struct Snapshot {
+    ids: Vec<VertexId>,
+    kind: Vec<u8>,
+    adj_start: Vec<u32>,
+    adj: Vec<u32>,
+    tris: Vec<[u32; 3]>,
+    /// Boundary neighbours (previous, next along the loop) of boundary vertices.
+    loop_nbrs: Vec<(u32, u32)>,
+    /// Triangles over a boundary edge a -> b with an interior apex v: (v, a, b).
+    apexes: Vec<(u32, u32, u32)>,
+}
+
+impl Snapshot {
+    fn build(m: &TriMesh<DVec2>) -> Snapshot {
+        let n = m.num_vertices();
+        let mut ids = Vec::with_capacity(n);
+        let mut index = SecondaryMap::with_capacity(n);
+        let mut kind = Vec::with_capacity(n);
+        for (v, vx) in m.vertices() {
+            index.insert(v, ids.len() as u32);
+            ids.push(v);
+            kind.push(match vx.tag {
+                VertexTag::Fixed => FIXED,
+                VertexTag::Boundary | VertexTag::InternalBoundary { .. } => BOUNDARY,
+                VertexTag::Interior => INTERIOR,
+            });
+        }
+        let mut adj_start = Vec::with_capacity(n + 1);
+        let mut adj = Vec::with_capacity(6 * n);
+        adj_start.push(0);
+        for &v in &ids {
+            for h in m.outgoing(v) {
+                adj.push(index[m.dest(h)]);
+            }
+            adj_start.push(adj.len() as u32);
+        }
+        let tris = m.face_ids().map(|f| m.face_vertices(f).map(|v| index[v])).collect();
+        let mut loop_nbrs = vec![(u32::MAX, u32::MAX); ids.len()];
+        let mut apexes = Vec::new();
+        for (i, &v) in ids.iter().enumerate() {
+            if m.is_boundary_vertex(v) {
+                let g = m.vertex(v).out;
+                loop_nbrs[i] = (index[m.origin(m.prev(g))], index[m.dest(g)]);
+                // The face over the boundary edge leaving v.
+                let h = m.twin(g); // c -> v, has the face
+                let apex = m.origin(m.prev(h));
+                if !m.is_boundary_vertex(apex) {
+                    apexes.push((index[apex], index[m.origin(h)], i as u32));
+                }
+            }
+        }
+        Snapshot { ids, kind, adj_start, adj, tris, loop_nbrs, apexes }
+    }
+}
+
+/// Deterministic parallel sum: fixed chunks, partial sums added in order.
+fn det_sum(n: usize, f: impl Fn(usize) -> (f64, f64) + Sync) -> (f64, f64) {
+    let parts: Vec<(f64, f64)> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut s = (0.0, 0.0);
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let (a, b) = f(i);
+                s.0 += a;
+                s.1 += b;
+            }
+            s
+        })
+        .collect();
+    parts.iter().fold((0.0, 0.0), |acc, s| (acc.0 + s.0, acc.1 + s.1))
+}
+
+fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
+    let opts = ctx.opts;
+    let h0 = opts.h0;
+    let mut snap = Snapshot::build(m);
+    let mut p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
+    let mut moved_since_check: Vec<f64> = vec![0.0; p.len()];
+    let uniform = opts.size.is_none();
+    let mut hv: Vec<f64> = vec![1.0; p.len()];
+    let mut last_q = 0.0;
+    let mut stall = 0;
+    let mut converged = false;
+    let mut iter = 0;
+    let mut unit = h0;
+    if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+        let mut val = [0usize; 12];
+        for i in 0..p.len() {
+            if snap.kind[i] == INTERIOR {
+                val[((snap.adj_start[i + 1] - snap.adj_start[i]) as usize).min(11)] += 1;
+            }
+        }
+        eprintln!("start: q mean {:.5}, {} vertices, interior valences {:?}", mean_quality(&snap, &p), p.len(), val);
+    }
+    while iter < opts.max_iter {
+        iter += 1;
+        if let Some(cb) = &opts.progress {
+            cb(iter, opts.max_iter);
+        }
+        if !uniform {
+            hv = p.par_iter().map(|&x| ctx.h(x)).collect::<Result<Vec<f64>, Error>>()?;
+        }
+        // Seed eq. 2.6: L0 = h_bar Fscale sqrt(sum L^2 / sum h_bar^2).
+        let (sl, sh) = det_sum(p.len(), |i| {
+            let mut s = (0.0, 0.0);
+            for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                let j = snap.adj[k as usize] as usize;
+                let hb = 0.5 * (hv[i] + hv[j]);
+                s.0 += p[i].distance_squared(p[j]);
+                s.1 += hb * hb;
+            }
+            s
+        });
+        let scale = opts.fscale * (sl / sh).sqrt();
+        // Forces gathered per vertex (deterministic in parallel), forward Euler step.
+        let dt = opts.deltat;
+        let mut newp: Vec<DVec2> = (0..p.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .map(|i| {
+                if snap.kind[i] == FIXED {
+                    return p[i];
+                }
+                let mut f = DVec2::ZERO;
+                for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                    let j = snap.adj[k as usize] as usize;
+                    let d = p[i] - p[j];
+                    let l = d.length();
+                    let l0 = 0.5 * (hv[i] + hv[j]) * scale;
+                    if l > 0.0 && l0 > l {
+                        f += d * ((l0 - l) / l);
+                    }
+                }
+                p[i] + dt * f
+            })
+            .collect();
+        // Interior movement before projection: the seed's stop criterion.
+        let max_move = (0..p.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .filter(|&i| snap.kind[i] == INTERIOR)
+            .map(|i| newp[i].distance(p[i]) / (h0 * hv[i]))
+            .reduce(|| 0.0, f64::max);
+        // Boundary membership follows the forces, as the seed's retriangulation lets it: a
+        // boundary node whose raw step ends inside the chord of its boundary neighbours leaves
+        // the boundary; an interior node whose raw step crosses the boundary edge below it joins.
+        let mut leaving: Vec<(usize, DVec2)> = Vec::new();
+        for i in 0..p.len() {
+            if snap.kind[i] == BOUNDARY && snap.loop_nbrs[i].0 != u32::MAX {
+                let (a, c) = snap.loop_nbrs[i];
+                if orient2d(p[a as usize], newp[i], p[c as usize]) == Sign::Positive {
+                    leaving.push((i, newp[i]));
+                }
+            }
+        }
+        let mut joining: Vec<usize> = snap
+            .apexes
+            .iter()
+            .filter(|&&(v, a, b)| orient2d(p[a as usize], p[b as usize], newp[v as usize]) != Sign::Positive)
+            .map(|&(v, _, _)| v as usize)
+            .collect();
+        joining.dedup();
+        // Boundary nodes back onto d = 0; interior nodes must stay inside.
+        let fixes: Vec<(usize, DVec2)> = (0..p.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .filter_map(|i| match snap.kind[i] {
+                // Boundary nodes move freely inside and are projected back when outside
+                // (seed step 7); the pressure keeps them on the boundary at equilibrium.
+                BOUNDARY => match ctx.approx_dist(newp[i]) {
+                    Ok(d) if d > 0.0 => match ctx.project(newp[i]) {
+                        Ok(Some(q)) => Some(Ok((i, q))),
+                        Ok(None) => Some(Ok((i, p[i]))),
+                        Err(e) => Some(Err(e)),
+                    },
+                    Ok(_) => None,
+                    Err(e) => Some(Err(e)),
+                },
+                INTERIOR => match ctx.approx_dist(newp[i]) {
+                    Ok(d) if d > -ctx.geps => Some(Ok((i, p[i]))),
+                    Ok(_) => None,
+                    Err(e) => Some(Err(e)),
+                },
+                _ => None,
+            })
+            .collect::<Result<Vec<_>, Error>>()?;
+        for (i, q) in fixes {
+            newp[i] = q;
+        }
+        // Step control: no triangle may invert; vertices of offending triangles step back.
+        guard_inversions(&snap, &p, &mut newp);
+        for i in 0..p.len() {
+            moved_since_check[i] += newp[i].distance(p[i]);
+        }
+        p = newp;
+        // Connectivity: when some node has moved far since the last check (the seed's ttol),
+        // every edge gets the exact in-circle test and bad ones flip; nothing is rebuilt.
+        let mut topo_changed = false;
+        let far = (0..p.len()).any(|i| moved_since_check[i] > TTOL * h0 * hv[i]);
+        if far {
+            write_back(m, &snap, &p);
+            moved_since_check.iter_mut().for_each(|x| *x = 0.0);
+            let flips = m.make_delaunay();
+            ctx.report.flips += flips;
+            topo_changed |= flips > 0;
+        }
+        // Boundary membership follows the forces, as in the seed's global retriangulation.
+        if !leaving.is_empty() || !joining.is_empty() {
+            write_back(m, &snap, &p);
+            topo_changed |= change_membership(ctx, m, &snap, &leaving, &joining)?;
+        }
+        // Density control and repair of bad triangles.
+        if iter % DENSITY_EVERY == 0 && iter < DENSITY_UNTIL {
+            write_back(m, &snap, &p);
+            topo_changed |= density_control(ctx, m, (sl / sh).sqrt())?;
+            unit = (sl / sh).sqrt();
+        }
+        if topo_changed {
+            snap = Snapshot::build(m);
+            p = snap.ids.iter().map(|&v| m.pos(v)).collect();
+            moved_since_check = vec![0.0; p.len()];
+            hv = vec![1.0; p.len()];
+            if !uniform {
+                hv = p.par_iter().map(|&x| ctx.h(x)).collect::<Result<Vec<f64>, Error>>()?;
+            }
+        }
+        if max_move < opts.dptol && iter > DENSITY_EVERY {
+            converged = true;
+            ctx.report.stop_reason = format!("interior nodes moved less than dptol = {} (relative to h)", opts.dptol);
+            break;
+        }
+        if iter % DENSITY_EVERY == 0 {
+            let q = mean_quality(&snap, &p);
+            if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+                eprintln!(
+                    "iter {iter}: q mean {q:.5}, max move {max_move:.2e}, {} vertices, flips {} splits {} collapses {} left {} joined {}",
+                    p.len(),
+                    ctx.report.flips,
+                    ctx.report.splits,
+                    ctx.report.collapses,
+                    ctx.left,
+                    ctx.joined
+                );
+            }
+            if q - last_q < 1e-6 {
+                stall += 1;
+                if stall >= 30 {
+                    converged = true;
+                    ctx.report.stop_reason = "mean quality stopped improving".into();
+                    break;
+                }
+            } else {
+                stall = 0;
+            }
+            last_q = last_q.max(q);
+        }
+    }
+    // Every boundary node ends on d = 0.
+    project_boundary(ctx, &snap, &mut p, m)?;
+    write_back(m, &snap, &p);
+    // Final cleanup: repair bad triangles, restore Delaunay.
+    density_control(ctx, m, unit)?;
+    ctx.report.flips += m.make_delaunay();
+    ctx.report.iterations = iter;
+    ctx.report.converged = converged;
+    if !converged {
+        ctx.report.stop_reason = format!("iteration cap of {} reached; the mesh is the last valid state", opts.max_iter);
+    }
+    Ok(())
+}
+
+/// Boundary nodes pushed inside become interior (a boundary ear is filled over them); interior
+/// nodes pushed outside become boundary nodes (the boundary triangle below them is removed).
+fn change_membership(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, snap: &Snapshot, leaving: &[(usize, DVec2)], joining: &[usize]) -> Result<bool, Error> {
+    let mut changed = false;
+    for &(i, inner) in leaving {
+        let b = snap.ids[i];
+        if !m.contains_vertex(b) || m.tag(b) != VertexTag::Boundary || !m.is_boundary_vertex(b) {
+            continue;
+        }
+        // An ear over a vertex whose neighbours are a single triangle would close the mesh.
+        if m.num_faces() < 3 {
+            continue;
+        }
+        let g = m.vertex(b).out; // b -> c on the boundary
+        let e = m.prev(g); // a -> b
+        let (a, c) = (m.origin(e), m.dest(g));
+        if m.tag(a) == VertexTag::Interior || m.tag(c) == VertexTag::Interior {
+            continue;
+        }
+        let old = m.pos(b);
+        if m.relocate(b, inner).is_err() {
+            continue;
+        }
+        if m.fill_boundary_ear(e, m.face(m.face_of(m.twin(e)).expect("boundary edge has a face")).label).is_ok() {
+            m.set_tag(b, VertexTag::Interior);
+            ctx.left += 1;
+            changed = true;
+        } else {
+            m.set_pos_unchecked(b, old);
+        }
+    }
+    for &i in joining {
+        let v = snap.ids[i];
+        if !m.contains_vertex(v) || m.tag(v) != VertexTag::Interior || m.is_boundary_vertex(v) {
+            continue;
+        }
+        // The worst triangle with v as apex over a boundary edge.
+        let mut best: Option<(f64, HalfEdgeId)> = None;
+        for x in m.outgoing(v) {
+            if let Some(f) = m.face_of(x) {
+                let opp = m.twin(m.next(x));
+                if m.face_of(opp).is_none() {
+                    let q = m.face_quality(f);
+                    if best.is_none_or(|(bq, _)| q < bq) {
+                        best = Some((q, opp));
+                    }
+                }
+            }
+        }
+        if let Some((_, t)) = best {
+            if m.remove_boundary_triangle(t).is_ok() {
+                m.set_tag(v, VertexTag::Boundary);
+                ctx.joined += 1;
+                if let Some(q) = ctx.project(m.pos(v))? {
+                    let _ = m.relocate(v, q);
+                }
+                changed = true;
+            }
+        }
+    }
+    Ok(changed)
+}
+
+fn write_back(m: &mut TriMesh<DVec2>, snap: &Snapshot, p: &[DVec2]) {
+    for (i, &v) in snap.ids.iter().enumerate() {
+        m.set_pos_unchecked(v, p[i]);
+    }
+}
+
+fn mean_quality(snap: &Snapshot, p: &[DVec2]) -> f64 {
+    let (s, _) = det_sum(snap.tris.len(), |t| {
+        let [a, b, c] = snap.tris[t];
+        (crate::quality::triangle_q([p[a as usize], p[b as usize], p[c as usize]]), 0.0)
+    });
+    s / snap.tris.len().max(1) as f64
+}
+
+/// Projects every boundary node (used once at the start).
+fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &TriMesh<DVec2>) -> Result<(), Error> {
+    let old = p.to_vec();
+    let mut newp = p.to_vec();
+    for i in 0..p.len() {
+        if snap.kind[i] == BOUNDARY {
+            if let Some(q) = ctx.project(p[i])? {
+                newp[i] = q;
+            }
+        }
+    }
+    guard_inversions(snap, &old, &mut newp);
+    p.copy_from_slice(&newp);
+    let _ = m;
+    Ok(())
+}
+
+/// Halves the step of every vertex of a triangle that would not be positively oriented (exact),
+/// three times, then puts them back; repeats until every triangle is positive. The old
+/// positions are valid, so this ends.
+fn guard_inversions(snap: &Snapshot, old: &[DVec2], newp: &mut [DVec2]) {
+    let mut factor = vec![1u8; old.len()]; // halvings applied
+    loop {
+        let bad: Vec<u32> = snap
+            .tris
+            .par_iter()
+            .with_min_len(CHUNK)
+            .filter(|t| {
+                let [a, b, c] = **t;
+                orient2d(newp[a as usize], newp[b as usize], newp[c as usize]) != Sign::Positive
+            })
+            .flat_map_iter(|t| t.iter().copied())
+            .collect();
+        if bad.is_empty() {
+            return;
+        }
+        let mut touched = false;
+        for &v in &bad {
+            let v = v as usize;
+            if newp[v] == old[v] {
+                continue;
+            }
+            touched = true;
+            factor[v] += 1;
+            newp[v] = if factor[v] > 3 { old[v] } else { old[v] + (newp[v] - old[v]) * 0.5 };
+        }
+        if !touched {
+            // Every vertex of every bad triangle is back at its old position: cannot happen
+            // for a valid start, but never loop.
+            return;
+        }
+    }
+}
+
+/// Splits edges longer than SPLIT_ABOVE targets, collapses edges shorter than COLLAPSE_BELOW
+/// targets and the shortest edge of triangles below Q_REPAIR, then restores Delaunay.
+/// Returns whether the topology changed.
+fn density_control(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, unit: f64) -> Result<bool, Error> {
+    let h0 = ctx.opts.h0;
+    let mut changed = false;
+    // Splits, longest first.
+    let mut long: Vec<(f64, HalfEdgeId)> = Vec::new();
+    let mut short: Vec<(f64, HalfEdgeId)> = Vec::new();
+    for h in m.edge_ids() {
+        let (a, b) = (m.pos(m.origin(h)), m.pos(m.dest(h)));
+        let hm = ctx.h((a + b) * 0.5)?;
+        let r = a.distance(b) / (h0 * hm);
+        if r > SPLIT_ABOVE {
+            long.push((r, h));
+        } else if r < COLLAPSE_BELOW {
+            short.push((r, h));
+        } else if m.is_boundary_edge(h) {
+            // Boundary spacing follows the mesh's own current scale (the interior sets it):
+            // the carved start has too many boundary nodes, and nothing else removes them.
+            let rb = a.distance(b) / (unit * hm);
+            if rb > BOUNDARY_SPLIT_ABOVE {
+                long.push((rb, h));
+            } else if rb < BOUNDARY_COLLAPSE_BELOW {
+                short.push((rb, h));
+            }
+        }
+    }
+    long.sort_by(|x, y| y.0.total_cmp(&x.0));
+    for (_, h) in long {
+        if !m.contains_half_edge(h) {
+            continue;
+        }
+        let (a, b) = (m.pos(m.origin(h)), m.pos(m.dest(h)));
+        let boundary = m.is_boundary_edge(h);
+        let mut mid = (a + b) * 0.5;
+        if boundary {
+            if let Some(q) = ctx.project(mid)? {
+                mid = q;
+            }
+        }
+        let split_at = if m.check_split(h, mid).is_ok() { mid } else { (a + b) * 0.5 };
+        if let Ok(v) = m.split_edge(h, split_at) {
+            ctx.report.splits += 1;
+            changed = true;
+            if split_at != mid {
+                let _ = m.relocate(v, mid);
+            }
+            legalize_vertex(ctx, m, v);
+        }
+    }
+    // Collapses: short edges, and the shortest edge of bad triangles.
+    let mut bad: Vec<(f64, crate::topology::FaceId)> = m.face_ids().map(|f| (m.face_quality(f), f)).filter(|(q, _)| *q < Q_REPAIR).collect();
+    bad.sort_by(|x, y| x.0.total_cmp(&y.0));
+    for (_, f) in bad {
+        if !m.contains_face(f) || m.face_quality(f) >= Q_REPAIR {
+            continue;
+        }
+        let hs = m.face_half_edges(f);
+        let mut order: Vec<HalfEdgeId> = hs.to_vec();
+        order.sort_by(|&x, &y| m.edge_length(x).total_cmp(&m.edge_length(y)));
+        for h in order {
+            if try_collapse(ctx, m, h)? {
+                changed = true;
+                break;
+            }
+        }
+    }
+    short.sort_by(|x, y| x.0.total_cmp(&y.0));
+    // One collapse per neighbourhood and pass: the forces spread the change before the next.
+    let mut touched: SecondaryMap<VertexId, ()> = SecondaryMap::new();
+    for (_, h) in short {
+        if !m.contains_half_edge(h) || touched.contains_key(m.origin(h)) || touched.contains_key(m.dest(h)) {
+            continue;
+        }
+        let ring: Vec<VertexId> = m.neighbours(m.origin(h)).into_iter().chain(m.neighbours(m.dest(h))).collect();
+        if try_collapse(ctx, m, h)? {
+            changed = true;
+            for v in ring {
+                touched.insert(v, ());
+            }
+        }
+    }
+    if changed {
+        ctx.report.flips += m.make_delaunay();
+    }
+    Ok(changed)
+}
+
+/// Collapses the edge of `h` in whichever direction the tags allow: an interior vertex goes
+/// into the other end; two boundary vertices on a boundary edge meet at the projected midpoint.
+fn try_collapse(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, h: HalfEdgeId) -> Result<bool, Error> {
+    let t = m.twin(h);
+    let (a, b) = (m.origin(h), m.dest(h));
+    let (ta, tb) = (m.tag(a), m.tag(b));
+    let mut tries: Vec<(HalfEdgeId, DVec2)> = Vec::with_capacity(3);
+    match (ta, tb) {
+        (VertexTag::Interior, VertexTag::Interior) => {
+            tries.push((h, (m.pos(a) + m.pos(b)) * 0.5));
+            tries.push((h, m.pos(b)));
+            tries.push((t, m.pos(a)));
+        }
+        (VertexTag::Interior, _) => tries.push((h, m.pos(b))),
+        (_, VertexTag::Interior) => tries.push((t, m.pos(a))),
+        (VertexTag::Boundary, VertexTag::Boundary) if m.is_boundary_edge(h) => {
+            let mid = (m.pos(a) + m.pos(b)) * 0.5;
+            if let Some(q) = ctx.project(mid)? {
+                tries.push((h, q));
+            }
+            tries.push((h, m.pos(b)));
+        }
+        (VertexTag::Boundary, VertexTag::Fixed) if m.is_boundary_edge(h) => tries.push((h, m.pos(b))),
+        (VertexTag::Fixed, VertexTag::Boundary) if m.is_boundary_edge(h) => tries.push((t, m.pos(a))),
+        _ => {}
+    }
+    for (e, pos) in tries {
+        if let Ok(v) = m.collapse(e, pos) {
+            ctx.report.collapses += 1;
+            legalize_vertex(ctx, m, v);
+            return Ok(true);
+        }
+    }
+    Ok(false)
+}
+
+fn legalize_vertex(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) {
+    let mut stack = Vec::new();
+    for h in m.outgoing(v) {
+        stack.push(h);
+        if m.face_of(h).is_some() {
+            stack.push(m.next(h));
+        }
+    }
+    ctx.report.flips += m.legalize(stack);
+}
