@@ -58,7 +58,7 @@ pub fn curvature_size_2d(phi: &Grid2, k: f64, g: f64) -> Vec<f64> {
     size_from(phi.values(), &kap, phi.spacing(), k, g)
 }
 
-fn size_from(phi: &[f64], kap: &[f64], dx: f64, k: f64, g: f64) -> Vec<f64> {
+pub(crate) fn size_from(phi: &[f64], kap: &[f64], dx: f64, k: f64, g: f64) -> Vec<f64> {
     phi.iter()
         .zip(kap)
         .map(|(&p, &c)| {

@@ -19,7 +19,7 @@ pub struct MedialAxisParams {
 impl Default for MedialAxisParams {
     fn default() -> Self {
         MedialAxisParams {
-            gamma: 2.0,
+            gamma: 4.0,
             kappa_tol: 0.1,
         }
     }
@@ -77,16 +77,16 @@ pub fn medial_axis_2d(phi: &Grid2, params: &MedialAxisParams) -> MedialAxis {
                 else {
                     continue;
                 };
-                // One-sided gradients on each side of the edge.
+                // Second-order one-sided gradients at the edge's two nodes, each from its own
+                // side only (so a shock inside the edge is not smeared into them).
                 let grad = |t: usize, fwd: bool| -> DVec2 {
                     let along = if fwd {
-                        v[idx(l, t + 1)] - v[idx(l, t)]
+                        -(3.0 * v[idx(l, t)] - 4.0 * v[idx(l, t + 1)] + v[idx(l, t + 2)]) / 2.0
                     } else {
-                        v[idx(l, t)] - v[idx(l, t - 1)]
+                        (3.0 * v[idx(l, t)] - 4.0 * v[idx(l, t - 1)] + v[idx(l, t - 2)]) / 2.0
                     };
                     let lc = l.clamp(1, lines - 2);
                     let across = 0.5 * (v[idx(lc + 1, t)] - v[idx(lc - 1, t)]);
-
                     let g = if axis == 0 {
                         DVec2::new(along, across)
                     } else {
@@ -158,11 +158,17 @@ fn crossing(a: [f64; 3], b: [f64; 3]) -> Option<(f64, f64)> {
     }
     // Strictly increasing on [-2, 3]: one root in [0, 1] iff the signs differ.
     let q = |s: f64| (qa * s + qb) * s + qc;
+    // A shock through a node gives a root at 0 or 1 up to round-off: allow for it.
     let (q0, q1) = (q(0.0), q(1.0));
-    if q0 > 0.0 || q1 < 0.0 {
+    let tol = 1e-9 * (qa.abs() + qb.abs() + qc.abs());
+    if q0 > tol || q1 < -tol {
         return None;
     }
-    let s0 = if qa.abs() < 1e-12 * qb.abs() {
+    let s0 = if q0 >= 0.0 {
+        0.0
+    } else if q1 <= 0.0 {
+        1.0
+    } else if qa.abs() < 1e-12 * qb.abs() {
         -qc / qb
     } else {
         // The root where the derivative is positive.

@@ -141,10 +141,23 @@ pub fn auto_size_2d(
     params: &SizeParams,
 ) -> Result<Grid2, Error> {
     check_params(params)?;
-    let phi = signed_distance_2d(domain, bbox[0], bbox[1], grid_h)?;
+    // Curvature from the sampled function itself (eq. 4.2 holds for any level-set function;
+    // second differences of a first-order reinitialised distance would be noise).
+    let raw = Grid2::sample(domain, bbox[0], bbox[1], grid_h)?;
+    let phi = if domain.is_distance() {
+        raw.clone()
+    } else {
+        reinitialize_2d(&raw)
+    };
     let (nx, ny) = phi.dims();
     let hc = if params.k > 0.0 {
-        curvature_size_2d(&phi, params.k, params.g)
+        curvature::size_from(
+            phi.values(),
+            &curvature_2d(&raw),
+            grid_h,
+            params.k,
+            params.g,
+        )
     } else {
         vec![f64::INFINITY; nx * ny]
     };
@@ -169,10 +182,21 @@ pub fn auto_size_3d(
     params: &SizeParams,
 ) -> Result<Grid3, Error> {
     check_params(params)?;
-    let phi = signed_distance_3d(domain, bbox[0], bbox[1], grid_h)?;
+    let raw = Grid3::sample(domain, bbox[0], bbox[1], grid_h)?;
+    let phi = if domain.is_distance() {
+        raw.clone()
+    } else {
+        reinitialize_3d(&raw)
+    };
     let n = phi.dims();
     let hc = if params.k > 0.0 {
-        curvature_size_3d(&phi, params.k, params.g)
+        curvature::size_from(
+            phi.values(),
+            &curvature_3d(&raw),
+            grid_h,
+            params.k,
+            params.g,
+        )
     } else {
         vec![f64::INFINITY; phi.values().len()]
     };
