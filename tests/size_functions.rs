@@ -49,8 +49,6 @@ fn seed_table_4_3_model_problem() {
         gradient_limit_hj_2d(&mut hj, dims, 1.0, &Slope::Constant(0.3), 1e-10, 100_000).unwrap();
     let t_hj = t.elapsed().as_secs_f64();
     let (e_fast, e_hj) = (max_err(&fast, &exact), max_err(&hj, &exact));
-    // Edge-based Dijkstra on the grid's edges (the seed's 7.79 comparison), via the mesh solver
-    // on a mesh without triangle updates: only axis edges.
     println!("table 4.3 model problem, 100 x 100 nodes, spacing 1, nodes -50..49:");
     println!("| solver | max error | seed | time |");
     println!("|---|---|---|---|");
@@ -508,26 +506,4 @@ fn auto_size_dumbbell() {
     }
     println!("dumbbell max |dh/dx| on the grid {gmax:.3}");
     assert!(gmax <= 0.3 + 1e-9);
-}
-
-#[test]
-fn zz_debug_strip() {
-    let r = Rectangle::new([-2.0, -0.2], [2.0, 0.2]);
-    let h = 0.01;
-    let phi = Grid2::sample(&r, [-2.1, -0.3], [2.1, 0.3], h).unwrap();
-    let ma = medial_axis_2d(&phi, &MedialAxisParams::default());
-    println!(
-        "{} points; first {:?}",
-        ma.points.len(),
-        &ma.points[..ma.points.len().min(10)]
-    );
-    let (lfs, _) = feature_size_2d(&phi, &MedialAxisParams::default());
-    let (nx, _) = phi.dims();
-    let k = 210 + nx * 30;
-    println!(
-        "phi {} lfs {} at {:?}",
-        phi.values()[k],
-        lfs[k],
-        phi.origin() + h * DVec2::new(210.0, 30.0)
-    );
 }
