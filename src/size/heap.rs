@@ -19,13 +19,13 @@ impl IndexedHeap {
         }
     }
 
-    /// A heap holding every node `i` with a finite `keys[i]` (O(n) heapify).
-    pub fn from_keys(keys: &[f64]) -> Self {
+    /// A heap holding every node `i` with `keys[i] < below` (O(n) heapify).
+    pub fn from_keys(keys: &[f64], below: f64) -> Self {
         let mut h = IndexedHeap::new(keys.len());
         h.slots = keys
             .iter()
             .enumerate()
-            .filter(|(_, k)| k.is_finite())
+            .filter(|(_, k)| **k < below)
             .map(|(i, &k)| (k, i as u32))
             .collect();
         for (s, &(_, i)) in h.slots.iter().enumerate() {
@@ -111,7 +111,7 @@ mod tests {
     #[test]
     fn size_heap_sorts_with_decrease_key() {
         let keys = [5.0, 3.0, f64::INFINITY, 8.0, 1.0, 7.0];
-        let mut h = IndexedHeap::from_keys(&keys);
+        let mut h = IndexedHeap::from_keys(&keys, f64::INFINITY);
         h.push_or_decrease(3, 2.0);
         h.push_or_decrease(2, 4.0);
         h.push_or_decrease(5, 9.0); // not a decrease: ignored

@@ -165,7 +165,8 @@ pub fn gradient_limit_mesh(
             fill[v] += 1;
         }
     }
-    let mut heap = IndexedHeap::from_keys(h);
+    let top = h.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut heap = IndexedHeap::from_keys(h, top);
     let mut fixed = vec![false; n];
     while let Some((j, _)) = heap.pop() {
         fixed[j] = true;

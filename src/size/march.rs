@@ -111,11 +111,13 @@ fn update(lat: &Lattice, vals: &[f64], accepted: &[bool], i: usize, slope: &Slop
     }
 }
 
-/// The marching core: every node with a finite value starts in the heap; nodes are accepted in
-/// increasing order and their neighbours lowered to the upwind value (never raised). `frozen`
-/// nodes keep their values. O(n log n).
+/// The marching core: every node starts in the heap; nodes are accepted in increasing order
+/// and their neighbours lowered to the upwind value (never raised). `frozen` nodes keep their
+/// values. Nodes at the largest value (or infinite) can lower nobody, so they enter the heap
+/// only once lowered (a narrow band, as in fast marching). O(n log n).
 pub(crate) fn march(lat: &Lattice, vals: &mut [f64], frozen: Option<&[bool]>, slope: &Slope) {
-    let mut heap = IndexedHeap::from_keys(vals);
+    let top = vals.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mut heap = IndexedHeap::from_keys(vals, top);
     let mut accepted = vec![false; lat.len()];
     while let Some((i, _)) = heap.pop() {
         accepted[i] = true;
