@@ -19,7 +19,7 @@ impl Lattice {
         if !(h.is_finite() && h > 0.0) {
             return Err(Error::BadSize(format!("grid spacing {h}")));
         }
-        if n.iter().product::<usize>() != len || n.iter().any(|&k| k == 0) {
+        if n.iter().product::<usize>() != len || n.contains(&0) {
             return Err(Error::BadSize(format!(
                 "grid of {n:?} nodes given {len} values"
             )));
@@ -222,7 +222,7 @@ pub(crate) fn reinit(lat: &Lattice, phi: &[f64]) -> Vec<f64> {
     d
 }
 
-/// A signed distance grid from level-set values on a grid ([`reinit`] by fast marching).
+/// A signed distance grid from level-set values on a grid (narrow band plus fast marching).
 pub fn reinitialize_2d(phi: &Grid2) -> Grid2 {
     let (nx, ny) = phi.dims();
     let lat = Lattice {

@@ -191,8 +191,7 @@ fn pick(r1: f64, r2: f64) -> Option<f64> {
     let tol = 1e-9;
     [r1, r2]
         .into_iter()
-        .filter(|r| r.is_finite() && *r >= -tol && *r <= 1.0 + tol)
-        .next()
+        .find(|r| r.is_finite() && *r >= -tol && *r <= 1.0 + tol)
 }
 
 /// Local feature size lfs = |phi| + |phi_MA| (seed eq. 4.6) at every node, with phi_MA by fast
