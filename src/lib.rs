@@ -18,6 +18,7 @@ pub mod io;
 pub mod mesher;
 pub mod predicates;
 pub mod quality;
+pub mod size;
 pub mod topology;
 
 #[doc(hidden)]
