@@ -1,1 +1,7 @@
-fn main() {}
+//! The `trussmesh` command line (see docs/cli.md).
+
+mod cli;
+
+fn main() {
+    std::process::exit(cli::main());
+}

@@ -1,0 +1,205 @@
+//! The seed's 2-D examples as data: the gallery meshes them and docs/cli.md lists them as
+//! commands (a test checks that the two agree and runs every command).
+
+/// One example: the `trussmesh mesh` flags that mesh it.
+#[derive(Debug, Clone, Copy)]
+pub struct Example {
+    /// File stem and table row name.
+    pub name: &'static str,
+    /// What it is.
+    pub title: &'static str,
+    /// d(x, y) < 0 inside.
+    pub domain: &'static str,
+    /// Relative size h(x, y); `None` is uniform.
+    pub size: Option<&'static str>,
+    /// Initial edge length (constant expression).
+    pub h0: &'static str,
+    /// X0,Y0,X1,Y1.
+    pub bbox: &'static str,
+    /// Fixed points "x,y;x,y".
+    pub fix: Option<&'static str>,
+    /// The domain is a level set, not a signed distance (`--implicit`).
+    pub implicit: bool,
+}
+
+/// Every 2-D example of the seed (section 2.5, figure 2-4; the ellipse of figure 3-3).
+/// Example 1 from a grid is left out: the command line has no grid input.
+pub const EXAMPLES: &[Example] = &[
+    Example {
+        name: "ex1a",
+        title: "unit circle, h0 = 0.4",
+        domain: "sqrt(x^2+y^2)-1",
+        size: None,
+        h0: "0.4",
+        bbox: "-1,-1,1,1",
+        fix: None,
+        implicit: false,
+    },
+    Example {
+        name: "ex1b",
+        title: "unit circle, h0 = 0.2",
+        domain: "sqrt(x^2+y^2)-1",
+        size: None,
+        h0: "0.2",
+        bbox: "-1,-1,1,1",
+        fix: None,
+        implicit: false,
+    },
+    Example {
+        name: "ex1c",
+        title: "unit circle, h0 = 0.1",
+        domain: "sqrt(x^2+y^2)-1",
+        size: None,
+        h0: "0.1",
+        bbox: "-1,-1,1,1",
+        fix: None,
+        implicit: false,
+    },
+    Example {
+        name: "ex2",
+        title: "circle with a hole",
+        domain: "-0.3+abs(0.7-sqrt(x^2+y^2))",
+        size: None,
+        h0: "0.1",
+        bbox: "-1,-1,1,1",
+        fix: None,
+        implicit: false,
+    },
+    Example {
+        name: "ex3a",
+        title: "square with a hole",
+        domain: "ddiff(drectangle(x,y,-1,1,-1,1), dcircle(x,y,0,0,0.4))",
+        size: None,
+        h0: "0.15",
+        bbox: "-1,-1,1,1",
+        fix: Some("-1,-1; -1,1; 1,-1; 1,1"),
+        implicit: false,
+    },
+    Example {
+        name: "ex3b",
+        title: "square with a hole, refined near the hole",
+        domain: "ddiff(drectangle(x,y,-1,1,-1,1), dcircle(x,y,0,0,0.4))",
+        size: Some("min(4*sqrt(x^2+y^2)-1, 2)"),
+        h0: "0.05",
+        bbox: "-1,-1,1,1",
+        fix: Some("-1,-1; -1,1; 1,-1; 1,1"),
+        implicit: false,
+    },
+    Example {
+        name: "ex4",
+        title: "hexagon minus a smaller rotated hexagon",
+        domain: "ddiff(dpoly(x,y, 1,0, 0.5,sqrt(3)/2, -0.5,sqrt(3)/2, -1,0, -0.5,-sqrt(3)/2, 0.5,-sqrt(3)/2), dpoly(x,y, sqrt(3)/4,0.25, 0,0.5, -sqrt(3)/4,0.25, -sqrt(3)/4,-0.25, 0,-0.5, sqrt(3)/4,-0.25))",
+        size: None,
+        h0: "0.1",
+        bbox: "-1,-1,1,1",
+        fix: Some(concat!(
+            "1,0; 0.5,sqrt(3)/2; -0.5,sqrt(3)/2; -1,0; -0.5,-sqrt(3)/2; 0.5,-sqrt(3)/2; ",
+            "sqrt(3)/4,0.25; 0,0.5; -sqrt(3)/4,0.25; -sqrt(3)/4,-0.25; 0,-0.5; sqrt(3)/4,-0.25"
+        )),
+        implicit: false,
+    },
+    Example {
+        name: "ex5",
+        title: "geometric adaptivity",
+        domain: "max(sqrt(x^2+y^2)-1, -(sqrt((x+0.4)^2+y^2)-0.55), -y)",
+        size: Some("min(0.15-0.2*(sqrt(x^2+y^2)-1), 0.06+0.2*(sqrt((x+0.4)^2+y^2)-0.55), ((sqrt((x+0.4)^2+y^2)-0.55)-(sqrt(x^2+y^2)-1))/3)"),
+        h0: "0.05/3",
+        bbox: "-1,0,1,1",
+        fix: Some("-1,0; -0.95,0; 0.15,0; 1,0"),
+        implicit: false,
+    },
+    Example {
+        name: "ex6",
+        title: "between level sets 0.5 and 1 of (x^4+y^4)^(1/4)",
+        domain: "max((x^4+y^4)^(1/4)-1, 0.5-(x^4+y^4)^(1/4))",
+        size: None,
+        h0: "0.1",
+        bbox: "-1,-1,1,1",
+        fix: None,
+        implicit: true,
+    },
+    Example {
+        name: "ex7",
+        title: "y <= cos(x) and y >= 5 (2x/(5 pi))^4 - 5",
+        domain: "max(y-cos(x), 5*(2*x/(5*pi))^4-5-y)",
+        size: None,
+        h0: "0.3",
+        bbox: "-5*pi/2,-5,5*pi/2,1",
+        fix: Some("-5*pi/2,0; 5*pi/2,0"),
+        implicit: true,
+    },
+    Example {
+        name: "ex8",
+        title: "rectangle and circle with a circular hole, graded from two corners and the hole",
+        domain: "ddiff(dunion(drectangle(x,y,-1,0.5,-0.5,0.5), dcircle(x,y,0.5,0,0.7)), dcircle(x,y,-0.4,0,0.2))",
+        size: Some("min(1+5*dcircle(x,y,-1,-0.5,0), 1+5*dcircle(x,y,-1,0.5,0), 1+5*dcircle(x,y,-0.4,0,0.2), 6)"),
+        h0: "0.02",
+        bbox: "-1,-0.7,1.2,0.7",
+        fix: Some("-1,-0.5; -1,0.5"),
+        implicit: false,
+    },
+    Example {
+        name: "ellipse",
+        title: "ellipse x^2/4 + y^2 < 1 (implicit, figure 3-3)",
+        domain: "x^2/4+y^2-1",
+        size: None,
+        h0: "0.2",
+        bbox: "-2,-1,2,1",
+        fix: None,
+        implicit: true,
+    },
+];
+
+impl Example {
+    /// The arguments after `trussmesh`, with the given outputs.
+    pub fn args(&self, outputs: &[String]) -> Vec<String> {
+        let mut a: Vec<String> = vec!["mesh".into(), "--dim".into(), "2".into()];
+        let mut push = |flag: &str, v: &str| {
+            a.push(flag.into());
+            a.push(v.into());
+        };
+        push("--domain", self.domain);
+        if let Some(s) = self.size {
+            push("--size", s);
+        }
+        push("--h0", self.h0);
+        push("--bbox", self.bbox);
+        if let Some(f) = self.fix {
+            push("--fix", f);
+        }
+        if self.implicit {
+            a.push("--implicit".into());
+        }
+        for o in outputs {
+            a.push("-o".into());
+            a.push(o.clone());
+        }
+        a
+    }
+
+    /// The shell command docs/cli.md shows: writes out/NAME.vtu and out/NAME.svg.
+    pub fn command_line(&self) -> String {
+        let outs = [
+            format!("out/{}.vtu", self.name),
+            format!("out/{}.svg", self.name),
+        ];
+        let mut s = String::from("trussmesh");
+        for a in self.args(&outs) {
+            s.push(' ');
+            s.push_str(&shell_quote(&a));
+        }
+        s
+    }
+}
+
+/// Single-quotes a word when the shell would otherwise change it.
+fn shell_quote(w: &str) -> String {
+    let plain = !w.is_empty()
+        && w.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./,=".contains(c));
+    if plain {
+        w.to_string()
+    } else {
+        format!("'{}'", w.replace('\'', r"'\''"))
+    }
+}

@@ -1,0 +1,521 @@
+//! `trussmesh mesh`: flags or a TOML scene in, mesh files and pictures out.
+
+use super::Failure;
+use clap::{Args, ValueEnum};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde::Deserialize;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+use trussmesh::expr::{Expr, ExprImplicit2};
+use trussmesh::geometry::project::Projection;
+use trussmesh::io::{CellType, Format, MeshData};
+use trussmesh::mesher::{mesh_2d, Options2, Report};
+
+/// Projection of boundary nodes onto d = 0.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProjectionArg {
+    /// Exact for distances, first order otherwise.
+    Auto,
+    /// One step p - d grad d (signed distances).
+    Exact,
+    /// First-order steps (seed eq. 3.9).
+    First,
+    /// Second-order steps (seed eq. 3.10-3.16).
+    Second,
+    /// True closest point by Newton's method (seed eq. 2.10-2.12).
+    Newton,
+}
+
+impl From<ProjectionArg> for Projection {
+    fn from(p: ProjectionArg) -> Self {
+        match p {
+            ProjectionArg::Auto => Projection::Auto,
+            ProjectionArg::Exact => Projection::Exact,
+            ProjectionArg::First => Projection::FirstOrder,
+            ProjectionArg::Second => Projection::SecondOrder,
+            ProjectionArg::Newton => Projection::Newton,
+        }
+    }
+}
+
+const FLAGS: [&str; 10] = [
+    "dim",
+    "domain",
+    "size",
+    "h0",
+    "bbox",
+    "fix",
+    "max_iter",
+    "seed",
+    "projection",
+    "implicit",
+];
+
+/// Mesh {d < 0} given by expressions in x, y (z), or by a scene file.
+#[derive(Args, Debug, Default)]
+pub struct MeshArgs {
+    /// A TOML scene file with the same fields as the flags (dim, domain, size, h0, bbox, fix,
+    /// max_iter, seed, projection, implicit, output).
+    #[arg(value_name = "SCENE.toml", conflicts_with_all = FLAGS)]
+    pub scene: Option<PathBuf>,
+    /// Dimension.
+    #[arg(long, value_name = "2|3")]
+    pub dim: Option<usize>,
+    /// The domain d(x, y) < 0 (a signed distance unless --implicit).
+    #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
+    pub domain: Option<String>,
+    /// Relative size h(x, y) (only ratios matter; default uniform).
+    #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
+    pub size: Option<String>,
+    /// Initial edge length (a constant expression such as 0.05/3).
+    #[arg(long, value_name = "H", allow_hyphen_values = true)]
+    pub h0: Option<String>,
+    /// Bounding box: the minimum corner, then the maximum corner.
+    #[arg(long, value_name = "X0,Y0[,Z0],X1,Y1[,Z1]", allow_hyphen_values = true)]
+    pub bbox: Option<String>,
+    /// Fixed points, separated by ';'.
+    #[arg(long, value_name = "x,y[,z];...", allow_hyphen_values = true)]
+    pub fix: Option<String>,
+    /// Iteration cap.
+    #[arg(long, value_name = "N")]
+    pub max_iter: Option<usize>,
+    /// Random seed.
+    #[arg(long, value_name = "N")]
+    pub seed: Option<u64>,
+    /// Boundary projection.
+    #[arg(long, value_enum)]
+    pub projection: Option<ProjectionArg>,
+    /// The domain is a level set, not a signed distance.
+    #[arg(long)]
+    pub implicit: bool,
+    /// Output file; the extension picks the format (.json .vtu .msh .mesh .obj .stl .ply .svg .png).
+    #[arg(short = 'o', long = "output", value_name = "FILE")]
+    pub output: Vec<PathBuf>,
+    /// No progress bar and no report.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// A number in a scene file: a TOML number or a constant expression string.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(untagged)]
+enum Num {
+    F(f64),
+    S(String),
+}
+
+impl Num {
+    fn text(&self) -> String {
+        match self {
+            Num::F(v) => v.to_string(),
+            Num::S(s) => s.clone(),
+        }
+    }
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    dim: Option<usize>,
+    domain: String,
+    size: Option<String>,
+    h0: Num,
+    bbox: Vec<Num>,
+    fix: Option<Vec<Vec<Num>>>,
+    max_iter: Option<usize>,
+    seed: Option<u64>,
+    projection: Option<ProjectionArg>,
+    implicit: Option<bool>,
+    output: Option<Vec<PathBuf>>,
+}
+
+/// The run as text, from flags or a scene file, before checking.
+#[derive(Debug, Clone, Default)]
+pub struct Spec {
+    pub dim: usize,
+    pub domain: String,
+    pub size: Option<String>,
+    pub h0: String,
+    pub bbox: Vec<String>,
+    pub fix: Vec<Vec<String>>,
+    pub max_iter: Option<usize>,
+    pub seed: Option<u64>,
+    pub projection: Option<ProjectionArg>,
+    pub implicit: bool,
+    pub outputs: Vec<PathBuf>,
+}
+
+/// A checked run.
+pub struct Job {
+    pub dim: usize,
+    pub domain: Expr,
+    pub size: Option<Expr>,
+    pub h0: f64,
+    pub bbox: Vec<f64>,
+    pub fix: Vec<Vec<f64>>,
+    pub max_iter: Option<usize>,
+    pub seed: Option<u64>,
+    pub projection: Option<ProjectionArg>,
+    pub implicit: bool,
+    pub outputs: Vec<PathBuf>,
+}
+
+/// A finished 2-D run.
+pub struct Meshed {
+    pub mesh: MeshData,
+    pub report: Report,
+}
+
+/// Splits at `sep` outside parentheses.
+pub fn split_top(s: &str, sep: char) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut depth = 0i32;
+    let mut cur = String::new();
+    for c in s.chars() {
+        match c {
+            '(' => depth += 1,
+            ')' => depth -= 1,
+            _ => {}
+        }
+        if c == sep && depth <= 0 {
+            out.push(std::mem::take(&mut cur));
+        } else {
+            cur.push(c);
+        }
+    }
+    out.push(cur);
+    out
+}
+
+impl MeshArgs {
+    /// The run these arguments describe (reading the scene file if one is given).
+    pub fn spec(&self) -> Result<Spec, Failure> {
+        if let Some(path) = &self.scene {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| Failure::bad(format!("cannot read {}: {e}", path.display())))?;
+            let s: SceneFile = toml::from_str(&text)
+                .map_err(|e| Failure::bad(format!("bad scene file {}: {e}", path.display())))?;
+            let mut outputs = s.output.unwrap_or_default();
+            outputs.extend(self.output.iter().cloned());
+            return Ok(Spec {
+                dim: s.dim.unwrap_or(2),
+                domain: s.domain,
+                size: s.size,
+                h0: s.h0.text(),
+                bbox: s.bbox.iter().map(Num::text).collect(),
+                fix: s
+                    .fix
+                    .unwrap_or_default()
+                    .iter()
+                    .map(|p| p.iter().map(Num::text).collect())
+                    .collect(),
+                max_iter: s.max_iter,
+                seed: s.seed,
+                projection: s.projection,
+                implicit: s.implicit.unwrap_or(false),
+                outputs,
+            });
+        }
+        let need = |v: &Option<String>, flag: &str| {
+            v.clone().ok_or_else(|| {
+                Failure::bad(format!(
+                    "missing --{flag} (or give a SCENE.toml file); see trussmesh mesh --help"
+                ))
+            })
+        };
+        let fix = match &self.fix {
+            Some(f) if !f.trim().is_empty() => split_top(f, ';')
+                .iter()
+                .filter(|p| !p.trim().is_empty())
+                .map(|p| split_top(p, ','))
+                .collect(),
+            _ => Vec::new(),
+        };
+        Ok(Spec {
+            dim: self.dim.unwrap_or(2),
+            domain: need(&self.domain, "domain")?,
+            size: self.size.clone(),
+            h0: need(&self.h0, "h0")?,
+            bbox: split_top(&need(&self.bbox, "bbox")?, ','),
+            fix,
+            max_iter: self.max_iter,
+            seed: self.seed,
+            projection: self.projection,
+            implicit: self.implicit,
+            outputs: self.output.clone(),
+        })
+    }
+}
+
+/// Parses an expression, reporting errors with a caret under the column.
+pub fn parse_expr(what: &str, src: &str) -> Result<Expr, Failure> {
+    Expr::parse(src)
+        .map_err(|e| Failure::bad(format!("bad {what} expression, {e}\n{}", e.render(src))))
+}
+
+/// A constant expression (a number, or something like 5*pi/2).
+fn constant(what: &str, src: &str) -> Result<f64, Failure> {
+    let e = parse_expr(what, src.trim())?;
+    let v = e.eval(0.0, 0.0, 0.0);
+    if e.eval(0.37, -1.3, 2.1).to_bits() != v.to_bits() && !v.is_nan() {
+        return Err(Failure::bad(format!(
+            "{what} must be a constant, not {src:?} (it depends on x, y or z)"
+        )));
+    }
+    if !v.is_finite() {
+        return Err(Failure::bad(format!(
+            "{what} {src:?} is not a finite number"
+        )));
+    }
+    Ok(v)
+}
+
+const PICTURES: [&str; 2] = ["svg", "png"];
+
+fn extension(p: &Path) -> String {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default()
+}
+
+/// Checks an output path's extension before any work is done.
+fn check_output(p: &Path) -> Result<(), Failure> {
+    if PICTURES.contains(&extension(p).as_str()) {
+        return Ok(());
+    }
+    Format::from_path(p).map(|_| ()).map_err(|_| {
+        Failure::bad(format!(
+            "unknown output extension in {} (expected .json .vtu .msh .mesh .obj .stl .ply .svg .png)",
+            p.display()
+        ))
+    })
+}
+
+impl Spec {
+    /// Checks everything and compiles the expressions.
+    pub fn resolve(&self) -> Result<Job, Failure> {
+        let dim = self.dim;
+        if dim != 2 && dim != 3 {
+            return Err(Failure::bad(format!("--dim must be 2 or 3, not {dim}")));
+        }
+        let domain = parse_expr("--domain", &self.domain)?;
+        let size = match &self.size {
+            Some(s) => Some(parse_expr("--size", s)?),
+            None => None,
+        };
+        if dim == 2 {
+            for e in std::iter::once(&domain).chain(size.as_ref()) {
+                if e.uses_z() {
+                    return Err(Failure::bad(format!(
+                        "{:?} uses z but --dim is 2",
+                        e.source()
+                    )));
+                }
+            }
+        }
+        let h0 = constant("h0", &self.h0)?;
+        if h0 <= 0.0 {
+            return Err(Failure::bad(format!(
+                "h0 must be positive, got {h0} ({})",
+                self.h0.trim()
+            )));
+        }
+        let axes = if dim == 2 {
+            "X0,Y0,X1,Y1"
+        } else {
+            "X0,Y0,Z0,X1,Y1,Z1"
+        };
+        if self.bbox.len() != 2 * dim {
+            return Err(Failure::bad(format!(
+                "--bbox needs {} values for --dim {dim} ({axes}), got {}",
+                2 * dim,
+                self.bbox.len()
+            )));
+        }
+        let bbox = self
+            .bbox
+            .iter()
+            .map(|s| constant("a --bbox value", s))
+            .collect::<Result<Vec<_>, _>>()?;
+        for k in 0..dim {
+            if bbox[k] >= bbox[k + dim] {
+                return Err(Failure::bad(format!(
+                    "--bbox is empty along axis {}: min {} >= max {} (order: {axes})",
+                    ["x", "y", "z"][k],
+                    bbox[k],
+                    bbox[k + dim]
+                )));
+            }
+        }
+        let mut fix = Vec::new();
+        for (i, p) in self.fix.iter().enumerate() {
+            if p.len() != dim {
+                return Err(Failure::bad(format!(
+                    "fixed point {} has {} coordinates, expected {dim} for --dim {dim}",
+                    i + 1,
+                    p.len()
+                )));
+            }
+            fix.push(
+                p.iter()
+                    .map(|s| constant("a --fix coordinate", s))
+                    .collect::<Result<Vec<_>, _>>()?,
+            );
+        }
+        if self.outputs.is_empty() {
+            return Err(Failure::bad(
+                "no output file: give -o FILE (several allowed)",
+            ));
+        }
+        for p in &self.outputs {
+            check_output(p)?;
+        }
+        Ok(Job {
+            dim,
+            domain,
+            size,
+            h0,
+            bbox,
+            fix,
+            max_iter: self.max_iter,
+            seed: self.seed,
+            projection: self.projection,
+            implicit: self.implicit,
+            outputs: self.outputs.clone(),
+        })
+    }
+}
+
+/// A progress bar on stderr that appears once a run has taken a second.
+fn progress_bar(quiet: bool) -> Option<ProgressBar> {
+    if quiet || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let pb = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
+    if let Ok(style) =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} iterations")
+    {
+        pb.set_style(style.progress_chars("=> "));
+    }
+    Some(pb)
+}
+
+impl Job {
+    /// The 2-D mesher's options.
+    pub fn options2(&self, progress: Option<ProgressBar>) -> Options2 {
+        let b = &self.bbox;
+        let mut o = Options2::uniform(self.h0, [b[0], b[1]], [b[2], b[3]]);
+        if let Some(h) = &self.size {
+            let h = h.clone();
+            o = o.with_size(move |p| h.eval(p.x, p.y, 0.0));
+        }
+        o = o.with_fixed(self.fix.iter().map(|p| [p[0], p[1]]));
+        if let Some(n) = self.max_iter {
+            o = o.with_max_iter(n);
+        }
+        if let Some(s) = self.seed {
+            o = o.with_seed(s);
+        }
+        if let Some(p) = self.projection {
+            o = o.with_projection(p.into());
+        }
+        if let Some(pb) = progress {
+            let start = Instant::now();
+            let shown = AtomicBool::new(false);
+            o = o.with_progress(move |it, cap| {
+                if !shown.load(Ordering::Relaxed) {
+                    if start.elapsed() < Duration::from_secs(1) {
+                        return;
+                    }
+                    shown.store(true, Ordering::Relaxed);
+                    pb.set_draw_target(ProgressDrawTarget::stderr());
+                }
+                pb.set_length(cap as u64);
+                pb.set_position(it as u64);
+            });
+        }
+        o
+    }
+
+    /// Meshes (2-D only for now).
+    pub fn mesh(&self, quiet: bool) -> Result<Meshed, Failure> {
+        if self.dim == 3 {
+            return mesh3(self);
+        }
+        let geom = ExprImplicit2 {
+            expr: self.domain.clone(),
+            distance: !self.implicit,
+        };
+        let pb = progress_bar(quiet);
+        let out = mesh_2d(&geom, &self.options2(pb.clone()));
+        if let Some(pb) = pb {
+            pb.finish_and_clear();
+        }
+        let out = out?;
+        let (points, tris, labels, _) = out.mesh.to_arrays();
+        let subdomain = if labels.iter().any(|&l| l != 0) {
+            Some(labels.iter().map(|&l| l as i32).collect())
+        } else {
+            None
+        };
+        let mesh = MeshData {
+            dim: 2,
+            cell_type: CellType::Triangle,
+            points: points.iter().map(|p| [p.x, p.y, 0.0]).collect(),
+            cells: tris.iter().flatten().copied().collect(),
+            subdomain,
+        };
+        Ok(Meshed {
+            mesh,
+            report: out.report,
+        })
+    }
+}
+
+/// 3-D meshing: the plumbing is here; the mesher is not yet.
+fn mesh3(_job: &Job) -> Result<Meshed, Failure> {
+    Err(Failure::bad(
+        "3-D meshing is not available yet (use --dim 2)",
+    ))
+}
+
+/// Writes one output: a mesh file, or a picture for .svg and .png.
+pub fn write_output(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Failure> {
+    if let Some(dir) = path.parent() {
+        if !dir.as_os_str().is_empty() {
+            std::fs::create_dir_all(dir).map_err(|e| {
+                Failure::internal(format!("cannot create directory {}: {e}", dir.display()))
+            })?;
+        }
+    }
+    let r = match extension(path).as_str() {
+        "svg" => trussmesh::io::write_svg(path, mesh, title),
+        "png" => trussmesh::io::write_png(path, mesh, title, 1200),
+        _ => trussmesh::io::write_mesh(path, mesh),
+    };
+    r.map_err(|e| match e {
+        trussmesh::Error::Io { .. } => Failure::internal(e.to_string()),
+        e => e.into(),
+    })
+}
+
+/// `trussmesh mesh`.
+pub fn run(args: MeshArgs) -> Result<(), Failure> {
+    let job = args.spec()?.resolve()?;
+    let done = job.mesh(args.quiet)?;
+    let title = job.domain.source().to_string();
+    for p in &job.outputs {
+        write_output(p, &done.mesh, &title)?;
+    }
+    if !args.quiet {
+        println!("{}", done.report);
+        for p in &job.outputs {
+            println!("wrote {}", p.display());
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,95 @@
+//! The command line: subcommands, errors and exit codes (0 ok, 1 internal failure, 2 bad input).
+
+pub mod examples;
+mod gallery;
+mod mesh;
+mod stats;
+
+use clap::{Parser, Subcommand};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// Exit code of a run that failed through no fault of the input.
+pub const EXIT_INTERNAL: i32 = 1;
+/// Exit code of bad input (arguments, expressions, files).
+pub const EXIT_BAD_INPUT: i32 = 2;
+
+/// A failed run: the exit code and the message for stderr.
+#[derive(Debug)]
+pub struct Failure {
+    pub code: i32,
+    pub message: String,
+}
+
+impl Failure {
+    /// Bad input (exit 2).
+    pub fn bad(message: impl Into<String>) -> Self {
+        Failure {
+            code: EXIT_BAD_INPUT,
+            message: message.into(),
+        }
+    }
+    /// Internal failure (exit 1).
+    pub fn internal(message: impl Into<String>) -> Self {
+        Failure {
+            code: EXIT_INTERNAL,
+            message: message.into(),
+        }
+    }
+}
+
+impl From<trussmesh::Error> for Failure {
+    fn from(e: trussmesh::Error) -> Self {
+        match e {
+            trussmesh::Error::Internal(_) => Failure::internal(e.to_string()),
+            _ => Failure::bad(e.to_string()),
+        }
+    }
+}
+
+/// High-quality simplex meshes of implicit geometries.
+#[derive(Parser, Debug)]
+#[command(name = "trussmesh", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Mesh {d < 0} given by expressions, or by a scene file.
+    Mesh(mesh::MeshArgs),
+    /// Print counts and quality statistics of a mesh file.
+    Stats(stats::StatsArgs),
+    /// Mesh every 2-D example of the seed into a directory, with a quality table.
+    Gallery(gallery::GalleryArgs),
+}
+
+/// Runs the command line and returns the exit code.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return e.exit_code();
+        }
+    };
+    std::panic::set_hook(Box::new(|info| {
+        eprintln!("error: internal failure (please report): {info}");
+    }));
+    match catch_unwind(AssertUnwindSafe(|| run(cli))) {
+        Ok(Ok(())) => 0,
+        Ok(Err(f)) => {
+            eprintln!("error: {}", f.message);
+            f.code
+        }
+        Err(_) => EXIT_INTERNAL,
+    }
+}
+
+fn run(cli: Cli) -> Result<(), Failure> {
+    match cli.command {
+        Command::Mesh(a) => mesh::run(a),
+        Command::Stats(a) => stats::run(a),
+        Command::Gallery(a) => gallery::run(a),
+    }
+}
