@@ -2,7 +2,7 @@
 //! global Delaunay retriangulation (through spade) whenever some node moved more than ttol h0.
 //! Kept as the reference the local engine must beat, in tests and benches.
 
-use super::input::{eval_d, eval_h, survey};
+use super::input::{eval_d, eval_h_floor, survey};
 use super::{MeshOutput2, Options2, QualityStats, Report};
 use crate::geometry::project::{project2, Projection};
 use crate::geometry::Implicit2;
@@ -32,7 +32,7 @@ fn triangulate(domain: &dyn Implicit2, p: &[DVec2], geps: f64) -> Result<Vec<[us
 /// Runs the classic strategy.
 pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, Error> {
     let t0 = Instant::now();
-    survey(domain, opts)?;
+    let floor = survey(domain, opts)?.h_floor;
     let h0 = opts.h0;
     let geps = 1e-3 * h0;
     let [lo, hi] = opts.bbox;
@@ -51,7 +51,7 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
             }
         }
     }
-    let hs: Vec<f64> = p.iter().map(|&q| eval_h(opts, q)).collect::<Result<_, _>>()?;
+    let hs: Vec<f64> = p.iter().map(|&q| eval_h_floor(opts, q, floor)).collect::<Result<_, _>>()?;
     let hmin = hs.iter().copied().fold(f64::INFINITY, f64::min);
     let mut kept: Vec<DVec2> = opts.fixed.clone();
     for (q, h) in p.iter().zip(&hs) {
@@ -99,7 +99,7 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
         let mut sh = 0.0;
         let mut hb = Vec::with_capacity(bars.len());
         for b in &bars {
-            let h = eval_h(opts, (p[b[0]] + p[b[1]]) * 0.5)?;
+            let h = eval_h_floor(opts, (p[b[0]] + p[b[1]]) * 0.5, floor)?;
             sl += p[b[0]].distance_squared(p[b[1]]);
             sh += h * h;
             hb.push(h);

@@ -12,6 +12,8 @@ pub(crate) struct DomainSurvey {
     pub estimated_triangles: f64,
     /// Estimated area of the domain.
     pub area: f64,
+    /// Smallest relative size sampled inside the domain.
+    pub h_floor: f64,
 }
 
 /// Evaluates d, failing on a non-finite value.
@@ -25,21 +27,33 @@ pub(crate) fn eval_d(domain: &dyn Implicit2, p: DVec2) -> Result<f64, Error> {
     }
 }
 
-/// Evaluates the relative size h, failing on a non-finite or non-positive value.
+/// Evaluates the relative size h, failing on a non-finite value. Size functions are only
+/// meaningful inside the domain (the seed's often are not positive outside, in holes), so a
+/// non-positive value is raised to `floor`, the smallest size sampled inside; [`survey`]
+/// rejects non-positive sizes inside.
 #[inline]
-pub(crate) fn eval_h(opts: &Options2, p: DVec2) -> Result<f64, Error> {
+pub(crate) fn eval_h_floor(opts: &Options2, p: DVec2, floor: f64) -> Result<f64, Error> {
     match &opts.size {
         None => Ok(1.0),
         Some(h) => {
             let v = h(p);
             if !v.is_finite() {
                 Err(Error::NonFinite { what: "the size function", value: v, at: [p.x, p.y, 0.0] })
-            } else if v <= 0.0 {
-                Err(Error::BadSize(format!("the size function is {v} at ({}, {}); it must be positive", p.x, p.y)))
             } else {
-                Ok(v)
+                Ok(v.max(floor))
             }
         }
+    }
+}
+
+/// Evaluates the relative size h strictly: non-finite or non-positive values are errors.
+#[inline]
+pub(crate) fn eval_h(opts: &Options2, p: DVec2) -> Result<f64, Error> {
+    let v = eval_h_floor(opts, p, f64::NEG_INFINITY)?;
+    if v <= 0.0 {
+        Err(Error::BadSize(format!("the size function is {v} at ({}, {}) inside the domain; it must be positive", p.x, p.y)))
+    } else {
+        Ok(v)
     }
 }
 
@@ -75,14 +89,18 @@ pub(crate) fn survey(domain: &dyn Implicit2, opts: &Options2) -> Result<DomainSu
     let dy = ext.y / (ny - 1) as f64;
     let mut inside = 0usize;
     let mut density = 0.0;
+    let mut h_floor = f64::INFINITY;
     for j in 0..ny {
         for i in 0..nx {
             let p = lo + DVec2::new(i as f64 * dx, j as f64 * dy);
             let d = eval_d(domain, p)?;
-            let h = eval_h(opts, p)?;
             if d < 0.0 {
+                let h = eval_h(opts, p)?;
                 inside += 1;
                 density += 1.0 / (h * h);
+                h_floor = h_floor.min(h);
+            } else {
+                eval_h_floor(opts, p, 0.0)?;
             }
         }
     }
@@ -107,6 +125,7 @@ pub(crate) fn survey(domain: &dyn Implicit2, opts: &Options2) -> Result<DomainSu
         }
         inside = 1;
         density = 1.0;
+        h_floor = 1.0;
     }
     let area = inside as f64 * cell;
     // Equilateral triangles of side h0 h have area sqrt(3)/4 (h0 h)^2.
@@ -114,5 +133,5 @@ pub(crate) fn survey(domain: &dyn Implicit2, opts: &Options2) -> Result<DomainSu
     if estimated_triangles > opts.max_elements as f64 {
         return Err(Error::TooManyElements { estimated: estimated_triangles as u64, limit: opts.max_elements });
     }
-    Ok(DomainSurvey { estimated_triangles, area })
+    Ok(DomainSurvey { estimated_triangles, area, h_floor })
 }

@@ -2,7 +2,7 @@
 //! enclosing triangle, then force equilibrium in the truss with boundary projection, local
 //! Delaunay flips around moved nodes, and density control by splits and collapses.
 
-use super::input::{eval_d, eval_h, survey};
+use super::input::{eval_d, eval_h_floor, survey};
 use super::{MeshOutput2, Options2, QualityStats, Report};
 use crate::geometry::project::{project2, ProjectError, Projection};
 use crate::geometry::Implicit2;
@@ -47,6 +47,7 @@ struct Ctx<'a> {
     opts: &'a Options2,
     projection: Projection,
     geps: f64,
+    h_floor: f64,
     report: Report,
     left: usize,
     joined: usize,
@@ -54,7 +55,7 @@ struct Ctx<'a> {
 
 impl Ctx<'_> {
     fn h(&self, p: DVec2) -> Result<f64, Error> {
-        eval_h(self.opts, p)
+        eval_h_floor(self.opts, p, self.h_floor)
     }
     fn d(&self, p: DVec2) -> Result<f64, Error> {
         eval_d(self.domain, p)
@@ -88,7 +89,7 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
         Projection::Auto => Projection::FirstOrder,
         p => p,
     };
-    let mut ctx = Ctx { domain, opts, projection, geps: 1e-3 * opts.h0, report: Report::default(), left: 0, joined: 0 };
+    let mut ctx = Ctx { domain, opts, projection, geps: 1e-3 * opts.h0, h_floor: survey.h_floor, report: Report::default(), left: 0, joined: 0 };
     let mut mesh = initial_mesh(&mut ctx, survey.estimated_triangles)?;
     equilibrium(&mut ctx, &mut mesh)?;
     if let Err(e) = mesh.validate(Level::Geometry) {
@@ -97,7 +98,6 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
     let mut report = ctx.report;
     report.seconds = t0.elapsed().as_secs_f64();
     report.quality = QualityStats::of(&mesh);
-    let _ = survey.area;
     Ok(MeshOutput2 { mesh, report })
 }
 
@@ -609,6 +609,12 @@ fn change_membership(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, snap: &Snapshot, lea
         let e = m.prev(g); // a -> b
         let (a, c) = (m.origin(e), m.dest(g));
         if m.tag(a) == VertexTag::Interior || m.tag(c) == VertexTag::Interior {
+            continue;
+        }
+        // The ear must lie inside the domain (the seed drops triangles with an outside
+        // centroid): over a concave part of the boundary it would cover a hole.
+        let (pa, pc) = (m.pos(a), m.pos(c));
+        if ctx.approx_dist((pa + inner + pc) / 3.0)? > -ctx.geps || ctx.approx_dist((pa + pc) * 0.5)? > -ctx.geps {
             continue;
         }
         let old = m.pos(b);
