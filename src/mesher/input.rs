@@ -128,8 +128,9 @@ pub(crate) fn survey(domain: &dyn Implicit2, opts: &Options2) -> Result<DomainSu
         h_floor = 1.0;
     }
     let area = inside as f64 * cell;
-    // Equilateral triangles of side h0 h have area sqrt(3)/4 (h0 h)^2.
-    let estimated_triangles = density * cell / (3f64.sqrt() / 4.0 * h0 * h0);
+    // h is relative (seed section 2.2): the smallest size inside gets edges of length h0, so
+    // the target is h0 h / h_min. Equilateral triangles of side L have area sqrt(3)/4 L^2.
+    let estimated_triangles = density * h_floor * h_floor * cell / (3f64.sqrt() / 4.0 * h0 * h0);
     if estimated_triangles > opts.max_elements as f64 {
         return Err(Error::TooManyElements { estimated: estimated_triangles as u64, limit: opts.max_elements });
     }

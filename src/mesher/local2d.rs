@@ -55,7 +55,8 @@ struct Ctx<'a> {
 
 impl Ctx<'_> {
     fn h(&self, p: DVec2) -> Result<f64, Error> {
-        eval_h_floor(self.opts, p, self.h_floor)
+        // Relative size normalised so that the smallest size inside is 1 (edge length h0).
+        Ok(eval_h_floor(self.opts, p, self.h_floor)? / self.h_floor)
     }
     fn d(&self, p: DVec2) -> Result<f64, Error> {
         eval_d(self.domain, p)
