@@ -1,0 +1,491 @@
+//! Delaunay tetrahedralization by incremental insertion and flips: points in BRIO + Hilbert
+//! order, a visibility walk to locate (exact orient3d), a 1-4 split, then 2-3 / 3-2 flips of
+//! the faces opposite the new vertex (exact insphere) from a stack, as in Joe (1991) and
+//! Shewchuk's notes. Points falling exactly on a face or edge are inserted by a cavity
+//! (Bowyer-Watson) instead.
+//!
+//! The triangulation starts from one enclosing tetrahedron whose four vertices lie far away
+//! (10^4 times the bounding box). Deleting the tets that hold them leaves the Delaunay
+//! tetrahedralization of the points minus any hull-side tets whose circumsphere held a far
+//! vertex: the hull is recovered unless a far vertex beats a hull face, which needs a hull face
+//! whose points and a far vertex are nearly cospherical (not met on the tested random sets).
+//! The oracle test checks exactly this: every boundary face has all points on its inner side,
+//! so the mesh is the convex hull, and every interior face passes exact insphere.
+
+use super::tet_ops::TetPatch;
+use super::tetmesh::{TVertex, TVertexId, Tet, TetId, TetMesh, FACE_VERTICES};
+use super::VertexTag;
+use crate::predicates::{insphere, orient3d, Sign};
+use glam::DVec3;
+use slotmap::Key;
+use smallvec::SmallVec;
+
+/// Indices of `points` in a biased randomized insertion order (BRIO): rounds of doubling size
+/// drawn at random, each sorted along a 3-D Hilbert curve over the bounding box.
+pub fn hilbert_order_3d(points: &[DVec3]) -> Vec<usize> {
+    let n = points.len();
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in points {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    let span = (hi - lo).max_element().max(f64::MIN_POSITIVE);
+    const BITS: u32 = 21;
+    let scale = ((1u64 << BITS) - 1) as f64 / span;
+    let key = |i: usize| {
+        let q = (points[i] - lo) * scale;
+        hilbert_index_3d([q.x as u32, q.y as u32, q.z as u32], BITS)
+    };
+    // A fixed shuffle, so the order is deterministic.
+    let mut idx: Vec<usize> = (0..n).collect();
+    let mut r = crate::testing::Rng::new(0x6272_696f);
+    for i in (1..n).rev() {
+        let j = (r.next_u64() % (i as u64 + 1)) as usize;
+        idx.swap(i, j);
+    }
+    let mut ends = vec![n];
+    let mut m = n;
+    while m > 256 {
+        m /= 2;
+        ends.push(m);
+    }
+    ends.push(0);
+    ends.reverse();
+    for w in ends.windows(2) {
+        let seg = &mut idx[w[0]..w[1]];
+        let mut keyed: Vec<(u64, usize)> = seg.iter().map(|&i| (key(i), i)).collect();
+        keyed.sort_unstable();
+        for (s, (_, i)) in seg.iter_mut().zip(keyed) {
+            *s = i;
+        }
+    }
+    idx
+}
+
+/// Position along the 3-D Hilbert curve (Skilling's transpose, then bit interleaving).
+fn hilbert_index_3d(mut x: [u32; 3], bits: u32) -> u64 {
+    let m = 1u32 << (bits - 1);
+    let mut q = m;
+    while q > 1 {
+        let p = q - 1;
+        for i in 0..3 {
+            if x[i] & q != 0 {
+                x[0] ^= p;
+            } else {
+                let t = (x[0] ^ x[i]) & p;
+                x[0] ^= t;
+                x[i] ^= t;
+            }
+        }
+        q >>= 1;
+    }
+    for i in 1..3 {
+        x[i] ^= x[i - 1];
+    }
+    let mut t = 0;
+    let mut q = m;
+    while q > 1 {
+        if x[2] & q != 0 {
+            t ^= q - 1;
+        }
+        q >>= 1;
+    }
+    for v in x.iter_mut() {
+        *v ^= t;
+    }
+    let mut key = 0u64;
+    for b in (0..bits).rev() {
+        for v in x {
+            key = (key << 1) | ((v >> b) & 1) as u64;
+        }
+    }
+    key
+}
+
+enum Loc {
+    Inside(TetId),
+    OnFace(TetId),
+    Vertex(TVertexId),
+    Outside,
+}
+
+impl TetMesh {
+    /// The Delaunay tetrahedralization of `points` (see the module notes for the hull). Returns
+    /// the mesh and the vertex of each input point; duplicates share one vertex, and a point
+    /// that ends in no tet maps to a key that is not live. Needs four non-coplanar points.
+    pub fn delaunay(points: &[DVec3]) -> Result<(TetMesh, Vec<TVertexId>), crate::Error> {
+        use crate::Error::InvalidMesh;
+        if let Some(i) = points.iter().position(|p| !p.is_finite()) {
+            return Err(InvalidMesh(format!("point {i} is not finite")));
+        }
+        if points.len() < 4 {
+            return Err(InvalidMesh("Delaunay needs at least four points".into()));
+        }
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for p in points {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let c = (lo + hi) * 0.5;
+        let s = (hi - lo).max_element().max(1e-300);
+        let far = 1e4 * s;
+        let dirs = [
+            DVec3::new(1.0, 1.0, 1.0),
+            DVec3::new(1.0, -1.0, -1.0),
+            DVec3::new(-1.0, 1.0, -1.0),
+            DVec3::new(-1.0, -1.0, 1.0),
+        ];
+        let mut m = TetMesh::with_capacity(points.len() + 4);
+        let fv: Vec<TVertexId> = dirs
+            .iter()
+            .map(|d| {
+                m.vertices.insert(TVertex {
+                    pos: c + *d * far,
+                    tet: TetId::null(),
+                    tag: VertexTag::Interior,
+                })
+            })
+            .collect();
+        let mut v = [fv[0], fv[1], fv[2], fv[3]];
+        if orient3d(m.pos(v[0]), m.pos(v[1]), m.pos(v[2]), m.pos(v[3])) != Sign::Positive {
+            v.swap(2, 3);
+        }
+        let t0 = m.tets.insert(Tet {
+            v,
+            adj: [None; 4],
+            label: 0,
+        });
+        for &x in &v {
+            m.vertices[x].tet = t0;
+        }
+        let mut ids = vec![TVertexId::null(); points.len()];
+        let mut hint = t0;
+        let mut stack: Vec<TetId> = Vec::with_capacity(64);
+        for i in hilbert_order_3d(points) {
+            let p = points[i];
+            match m.locate(p, hint) {
+                Loc::Vertex(w) => ids[i] = w,
+                Loc::Outside => {
+                    return Err(InvalidMesh(
+                        "a point fell outside the enclosing tetrahedron".into(),
+                    ))
+                }
+                Loc::Inside(t) => {
+                    let tv = m.tets[t].v;
+                    let null = TVertexId::null();
+                    let new = (0..4)
+                        .map(|k| {
+                            let mut q = tv;
+                            q[k] = null;
+                            (q, 0u32)
+                        })
+                        .collect();
+                    let plan = TetPatch::raw(
+                        SmallVec::from_slice(&[t]),
+                        new,
+                        Some((p, VertexTag::Interior)),
+                    );
+                    let (made, nv) = m.apply_patch(plan);
+                    let nv = nv.expect("new vertex");
+                    ids[i] = nv;
+                    stack.clear();
+                    stack.extend(made);
+                    hint = m.restore_delaunay(nv, &mut stack);
+                }
+                Loc::OnFace(t) => {
+                    if let Some((nv, h)) = m.insert_cavity(p, t) {
+                        ids[i] = nv;
+                        hint = h;
+                    }
+                }
+            }
+            if !m.tets.contains_key(hint) {
+                hint = m.tets.keys().next().expect("tets");
+            }
+        }
+        // Remove the enclosing vertices and their tets.
+        let dead: Vec<TetId> = m
+            .tets
+            .iter()
+            .filter(|(_, tx)| tx.v.iter().any(|w| fv.contains(w)))
+            .map(|(t, _)| t)
+            .collect();
+        let removed: Vec<Tet> = dead
+            .iter()
+            .map(|&t| m.tets.remove(t).expect("live"))
+            .collect();
+        for tx in &removed {
+            for k in 0..4 {
+                if let Some((u, j)) = tx.adj[k] {
+                    if let Some(ux) = m.tets.get_mut(u) {
+                        ux.adj[j as usize] = None;
+                        let uv = ux.v;
+                        for w in uv {
+                            m.vertices[w].tet = u;
+                        }
+                    }
+                }
+            }
+        }
+        for &w in &fv {
+            m.vertices.remove(w);
+        }
+        let lost: Vec<TVertexId> = m
+            .vertices
+            .iter()
+            .filter(|(_, vx)| !m.tets.contains_key(vx.tet))
+            .map(|(w, _)| w)
+            .collect();
+        for w in lost {
+            m.vertices.remove(w);
+        }
+        if m.tets.is_empty() {
+            return Err(InvalidMesh("the points are coplanar".into()));
+        }
+        Ok((m, ids))
+    }
+
+    /// Visibility walk from `start` with a rotating first face (exact orientations).
+    fn locate(&self, p: DVec3, start: TetId) -> Loc {
+        let mut t = start;
+        let mut rot: u32 = 0x9e37_79b9;
+        let mut prev: Option<TetId> = None;
+        'walk: loop {
+            let tx = &self.tets[t];
+            let q = [
+                self.pos(tx.v[0]),
+                self.pos(tx.v[1]),
+                self.pos(tx.v[2]),
+                self.pos(tx.v[3]),
+            ];
+            rot ^= rot << 13;
+            rot ^= rot >> 17;
+            rot ^= rot << 5;
+            let r = (rot >> 8) as usize;
+            let mut zero = false;
+            for k in 0..4 {
+                let i = (k + r) & 3;
+                let nb = tx.adj[i];
+                // No need to test the face we came through.
+                if nb.is_some() && nb.map(|x| x.0) == prev {
+                    continue;
+                }
+                let f = FACE_VERTICES[i];
+                match orient3d(q[f[0]], q[f[1]], q[f[2]], p) {
+                    Sign::Positive => match nb {
+                        Some((u, _)) => {
+                            prev = Some(t);
+                            t = u;
+                            continue 'walk;
+                        }
+                        None => return Loc::Outside,
+                    },
+                    Sign::Zero => zero = true,
+                    Sign::Negative => {}
+                }
+            }
+            if !zero {
+                return Loc::Inside(t);
+            }
+            if let Some(k) = (0..4).find(|&k| q[k] == p) {
+                return Loc::Vertex(tx.v[k]);
+            }
+            return Loc::OnFace(t);
+        }
+    }
+
+    /// Flips the faces opposite `p` until each passes exact insphere or cannot be flipped.
+    /// Returns a live tet near `p`.
+    fn restore_delaunay(&mut self, p: TVertexId, stack: &mut Vec<TetId>) -> TetId {
+        let mut last = self.vertices[p].tet;
+        while let Some(t) = stack.pop() {
+            let Some(tx) = self.tets.get(t) else { continue };
+            let tx = *tx;
+            let ip = tx.v.iter().position(|&w| w == p).expect("tet holds p");
+            let Some((u, j)) = tx.adj[ip] else { continue };
+            let e = self.tets[u].v[j as usize];
+            let q = [
+                self.pos(tx.v[0]),
+                self.pos(tx.v[1]),
+                self.pos(tx.v[2]),
+                self.pos(tx.v[3]),
+            ];
+            let pe = self.pos(e);
+            if insphere(q[0], q[1], q[2], q[3], pe) != Sign::Positive {
+                continue;
+            }
+            let pp = q[ip];
+            let f = FACE_VERTICES[ip];
+            let abc = [tx.v[f[0]], tx.v[f[1]], tx.v[f[2]]];
+            let pabc = [q[f[0]], q[f[1]], q[f[2]]];
+            let mut neg = SmallVec::<[usize; 3]>::new();
+            let mut zero = false;
+            for k in 0..3 {
+                match orient3d(pabc[k], pabc[(k + 1) % 3], pp, pe) {
+                    Sign::Positive => {}
+                    Sign::Negative => neg.push(k),
+                    Sign::Zero => zero = true,
+                }
+            }
+            if neg.is_empty() && !zero {
+                // 2-3: (a, b, p, e), (b, c, p, e), (c, a, p, e).
+                let new = (0..3)
+                    .map(|k| ([abc[k], abc[(k + 1) % 3], p, e], tx.label))
+                    .collect();
+                let (made, _) =
+                    self.apply_patch(TetPatch::raw(SmallVec::from_slice(&[t, u]), new, None));
+                last = made[0];
+                stack.extend(made);
+            } else if neg.len() == 1 && !zero {
+                // 3-2 around the reflex edge (x, y) when exactly three tets hold it.
+                let k = neg[0];
+                let (x, y, z) = (abc[k], abc[(k + 1) % 3], abc[(k + 2) % 3]);
+                let iz = tx.v.iter().position(|&w| w == z).expect("z");
+                let Some((w, _)) = tx.adj[iz] else { continue };
+                let ux = &self.tets[u];
+                let uz = ux.v.iter().position(|&w| w == z).expect("z");
+                if ux.adj[uz].map(|a| a.0) != Some(w) || !self.tets[w].v.contains(&e) {
+                    continue;
+                }
+                // The two new tets: (x, p, z, e)-side and (y, p, z, e)-side, oriented by
+                // substitution into t and checked exactly.
+                let mut t1 = tx.v;
+                let mut t2 = tx.v;
+                for s in t1.iter_mut() {
+                    if *s == y {
+                        *s = e;
+                    }
+                }
+                for s in t2.iter_mut() {
+                    if *s == x {
+                        *s = e;
+                    }
+                }
+                let ok = |v: [TVertexId; 4]| {
+                    orient3d(
+                        self.pos(v[0]),
+                        self.pos(v[1]),
+                        self.pos(v[2]),
+                        self.pos(v[3]),
+                    ) == Sign::Positive
+                };
+                if !ok(t1) || !ok(t2) {
+                    continue;
+                }
+                let new = SmallVec::from_slice(&[(t1, tx.label), (t2, tx.label)]);
+                let (made, _) =
+                    self.apply_patch(TetPatch::raw(SmallVec::from_slice(&[t, u, w]), new, None));
+                last = made[0];
+                stack.extend(made);
+            }
+        }
+        if self.tets.contains_key(last) {
+            last
+        } else {
+            self.vertices[p].tet
+        }
+    }
+
+    /// Inserts `p` by emptying the tets whose circumsphere strictly holds it, grown from `t`
+    /// (which holds `p` on its closure). None when a new tet would not be positive.
+    fn insert_cavity(&mut self, p: DVec3, t: TetId) -> Option<(TVertexId, TetId)> {
+        let mut cav: SmallVec<[TetId; 16]> = SmallVec::new();
+        cav.push(t);
+        let mut k = 0;
+        while k < cav.len() {
+            let tx = self.tets[cav[k]];
+            k += 1;
+            for i in 0..4 {
+                if let Some((u, _)) = tx.adj[i] {
+                    if cav.contains(&u) {
+                        continue;
+                    }
+                    let q = self.tet_points(u);
+                    if insphere(q[0], q[1], q[2], q[3], p) == Sign::Positive {
+                        cav.push(u);
+                    }
+                }
+            }
+        }
+        let null = TVertexId::null();
+        let mut new: SmallVec<[([TVertexId; 4], u32); 16]> = SmallVec::new();
+        for &c in &cav {
+            let tx = self.tets[c];
+            for i in 0..4 {
+                if let Some((u, _)) = tx.adj[i] {
+                    if cav.contains(&u) {
+                        continue;
+                    }
+                }
+                let mut v = tx.v;
+                v[i] = null;
+                let q = v.map(|w| if w.is_null() { p } else { self.pos(w) });
+                if orient3d(q[0], q[1], q[2], q[3]) != Sign::Positive {
+                    return None;
+                }
+                new.push((v, tx.label));
+            }
+        }
+        let (made, nv) = self.apply_patch(TetPatch::raw(cav, new, Some((p, VertexTag::Interior))));
+        Some((nv.expect("new vertex"), made[0]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::topology::Level;
+
+    #[test]
+    fn hilbert_keys_are_a_permutation_of_the_curve() {
+        let mut keys: Vec<u64> = (0..8u32)
+            .map(|i| hilbert_index_3d([i & 1, (i >> 1) & 1, i >> 2], 1))
+            .collect();
+        keys.sort();
+        assert_eq!(keys, (0..8).collect::<Vec<u64>>());
+        // Consecutive cells of an order-2 curve are face neighbours.
+        let mut cells: Vec<(u64, [u32; 3])> = Vec::new();
+        for x in 0..4 {
+            for y in 0..4 {
+                for z in 0..4 {
+                    cells.push((hilbert_index_3d([x, y, z], 2), [x, y, z]));
+                }
+            }
+        }
+        cells.sort();
+        for w in cells.windows(2) {
+            let d: u32 = (0..3).map(|k| w[0].1[k].abs_diff(w[1].1[k])).sum();
+            assert_eq!(d, 1, "{:?}", w);
+        }
+    }
+
+    #[test]
+    fn small_delaunay_is_valid() {
+        let mut r = crate::testing::Rng::new(crate::testing::SEED);
+        let pts: Vec<DVec3> = (0..200)
+            .map(|_| DVec3::new(r.f64(), r.f64(), r.f64()))
+            .collect();
+        let (m, ids) = TetMesh::delaunay(&pts).unwrap();
+        m.validate(Level::Delaunay).unwrap();
+        assert!(ids.iter().all(|&v| m.contains_vertex(v)));
+    }
+
+    #[test]
+    fn grid_points_with_degeneracies() {
+        let mut pts = Vec::new();
+        for i in 0..4 {
+            for j in 0..4 {
+                for k in 0..4 {
+                    pts.push(DVec3::new(i as f64, j as f64, k as f64));
+                }
+            }
+        }
+        pts.push(DVec3::new(1.0, 1.0, 1.0)); // a duplicate
+        let (m, ids) = TetMesh::delaunay(&pts).unwrap();
+        m.validate(Level::Geometry).unwrap();
+        assert_eq!(ids[pts.len() - 1], ids[21]);
+        assert!((m.volume() - 27.0).abs() < 1e-9, "volume {}", m.volume());
+    }
+}
