@@ -13,12 +13,15 @@
 //! so the mesh is the convex hull, and every interior face passes exact insphere.
 
 use super::tet_ops::TetPatch;
-use super::tetmesh::{TVertex, TVertexId, Tet, TetId, TetMesh, FACE_VERTICES};
+use super::tetmesh::{
+    face_key, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_VERTICES, FACE_VERTICES,
+};
 use super::VertexTag;
 use crate::predicates::{insphere, orient3d, Sign};
 use glam::DVec3;
 use slotmap::Key;
 use smallvec::SmallVec;
+use std::collections::{HashMap, HashSet};
 
 /// Indices of `points` in a biased randomized insertion order (BRIO): rounds of doubling size
 /// drawn at random, each sorted along a 3-D Hilbert curve over the bounding box.
@@ -232,6 +235,7 @@ impl TetMesh {
         for &w in &fv {
             m.vertices.remove(w);
         }
+        m.fill_hull();
         let lost: Vec<TVertexId> = m
             .vertices
             .iter()
@@ -245,6 +249,144 @@ impl TetMesh {
             return Err(InvalidMesh("the points are coplanar".into()));
         }
         Ok((m, ids))
+    }
+
+    /// Fills the dents left where an enclosing vertex beat a hull face: while two boundary faces
+    /// (a, b, c) and (b, a, w) meet at a reflex edge (w strictly outside (a, b, c), exact), adds
+    /// the positive tet (a, b, c, w), then restores Delaunay around it by flips. Returns the
+    /// number of tets added.
+    fn fill_hull(&mut self) -> usize {
+        let mut total = 0;
+        loop {
+            let bf = self.boundary_faces();
+            let mut by_key: HashMap<[TVertexId; 3], (TetId, u8)> = HashMap::with_capacity(bf.len());
+            let mut by_edge: HashMap<(TVertexId, TVertexId), TVertexId> =
+                HashMap::with_capacity(3 * bf.len());
+            for &(t, i) in &bf {
+                let f = self.face_vertices(t, i);
+                by_key.insert(face_key(f), (t, i as u8));
+                for k in 0..3 {
+                    by_edge.insert((f[k], f[(k + 1) % 3]), f[(k + 2) % 3]);
+                }
+            }
+            let mut touched: HashSet<TVertexId> = HashSet::new();
+            let mut added: Vec<TetId> = Vec::new();
+            for &(t, i) in &bf {
+                if self.tets[t].adj[i].is_some() {
+                    continue;
+                }
+                let f = self.face_vertices(t, i);
+                if f.iter().any(|v| touched.contains(v)) {
+                    continue;
+                }
+                let pf = [self.pos(f[0]), self.pos(f[1]), self.pos(f[2])];
+                for k in 0..3 {
+                    let (x, y) = (f[k], f[(k + 1) % 3]);
+                    let Some(&w) = by_edge.get(&(y, x)) else {
+                        continue;
+                    };
+                    if touched.contains(&w) || f.contains(&w) {
+                        continue;
+                    }
+                    // Reflex edge: w strictly outside the face.
+                    if orient3d(pf[0], pf[1], pf[2], self.pos(w)) != Sign::Positive {
+                        continue;
+                    }
+                    let v = [f[0], f[1], f[2], w];
+                    // Each face of the new tet is new, or a boundary face to glue to.
+                    let mut glue: [Option<(TetId, u8)>; 4] = [None; 4];
+                    let mut ok = true;
+                    for (j, g) in glue.iter_mut().enumerate() {
+                        let fv = FACE_VERTICES[j].map(|m| v[m]);
+                        match by_key.get(&face_key(fv)) {
+                            Some(&(u, l)) if self.tets[u].adj[l as usize].is_none() => {
+                                *g = Some((u, l))
+                            }
+                            Some(_) => ok = false,
+                            None => ok &= !self.has_face(fv[0], fv[1], fv[2]),
+                        }
+                    }
+                    if !ok {
+                        continue;
+                    }
+                    let id = self.tets.insert(Tet {
+                        v,
+                        adj: glue,
+                        label: 0,
+                    });
+                    for (j, g) in glue.iter().enumerate() {
+                        if let Some((u, l)) = g {
+                            self.tets[*u].adj[*l as usize] = Some((id, j as u8));
+                        }
+                    }
+                    for &x in &v {
+                        self.vertices[x].tet = id;
+                        touched.insert(x);
+                    }
+                    added.push(id);
+                    break;
+                }
+            }
+            if added.is_empty() {
+                break;
+            }
+            total += added.len();
+            let mut stack = Vec::new();
+            for &t in &added {
+                for i in 0..4 {
+                    stack.push((t, i));
+                }
+            }
+            self.lawson(stack);
+        }
+        total
+    }
+
+    /// Lawson flips from a stack of faces: each face that fails exact insphere is removed by a
+    /// 2-3 flip, or by a 3-2 flip of one of its edges; faces neither can remove are left.
+    /// Returns the number of flips.
+    pub(crate) fn lawson(&mut self, mut stack: Vec<(TetId, usize)>) -> usize {
+        let mut flips = 0;
+        while let Some((t, i)) = stack.pop() {
+            if !self.tets.contains_key(t) {
+                continue;
+            }
+            let Some((u, _)) = self.tets[t].adj[i] else {
+                continue;
+            };
+            if self.tets[u].label != self.tets[t].label || self.is_locally_delaunay(t, i) {
+                continue;
+            }
+            let made = match self.check_flip23(t, i) {
+                Ok(plan) => self.apply_patch(plan).0,
+                Err(_) => {
+                    let f = FACE_VERTICES[i];
+                    let mut done = None;
+                    for k in 0..3 {
+                        let (x, y) = (f[k].min(f[(k + 1) % 3]), f[k].max(f[(k + 1) % 3]));
+                        let e = EDGE_VERTICES
+                            .iter()
+                            .position(|&[p, q]| p == x && q == y)
+                            .expect("edge");
+                        if let Ok(plan) = self.check_flip32(t, e) {
+                            done = Some(self.apply_patch(plan).0);
+                            break;
+                        }
+                    }
+                    match done {
+                        Some(m) => m,
+                        None => continue,
+                    }
+                }
+            };
+            flips += 1;
+            for &n in &made {
+                for j in 0..4 {
+                    stack.push((n, j));
+                }
+            }
+        }
+        flips
     }
 
     /// Visibility walk from `start` with a rotating first face (exact orientations).
