@@ -176,25 +176,14 @@ impl TetMesh {
                     ))
                 }
                 Loc::Inside(t) => {
-                    let tv = m.tets[t].v;
-                    let null = TVertexId::null();
-                    let new = (0..4)
-                        .map(|k| {
-                            let mut q = tv;
-                            q[k] = null;
-                            (q, 0u32)
-                        })
-                        .collect();
-                    let plan = TetPatch::raw(
-                        SmallVec::from_slice(&[t]),
-                        new,
-                        Some((p, VertexTag::Interior)),
-                    );
-                    let (made, nv) = m.apply_patch(plan);
-                    let nv = nv.expect("new vertex");
+                    let nv = m.vertices.insert(TVertex {
+                        pos: p,
+                        tet: t,
+                        tag: VertexTag::Interior,
+                    });
                     ids[i] = nv;
                     stack.clear();
-                    stack.extend(made);
+                    m.split14_raw(t, nv, &mut stack);
                     hint = m.restore_delaunay(nv, &mut stack);
                 }
                 Loc::OnFace(t) => {
@@ -473,13 +462,8 @@ impl TetMesh {
             }
             if neg.is_empty() && !zero {
                 // 2-3: (a, b, p, e), (b, c, p, e), (c, a, p, e).
-                let new = (0..3)
-                    .map(|k| ([abc[k], abc[(k + 1) % 3], p, e], tx.label))
-                    .collect();
-                let (made, _) =
-                    self.apply_patch(TetPatch::raw(SmallVec::from_slice(&[t, u]), new, None));
-                last = made[0];
-                stack.extend(made);
+                last = t;
+                self.flip23_raw(t, ip, u, j as usize, stack);
             } else if neg.len() == 1 && !zero {
                 // 3-2 around the reflex edge (x, y) when exactly three tets hold it.
                 let k = neg[0];
@@ -516,11 +500,8 @@ impl TetMesh {
                 if !ok(t1) || !ok(t2) {
                     continue;
                 }
-                let new = SmallVec::from_slice(&[(t1, tx.label), (t2, tx.label)]);
-                let (made, _) =
-                    self.apply_patch(TetPatch::raw(SmallVec::from_slice(&[t, u, w]), new, None));
-                last = made[0];
-                stack.extend(made);
+                last = t;
+                self.flip32_raw(t, u, w, x, y, e, stack);
             }
         }
         if self.tets.contains_key(last) {
@@ -528,6 +509,139 @@ impl TetMesh {
         } else {
             self.vertices[p].tet
         }
+    }
+
+    /// Sets the neighbour across face `i` of `t` to `n`, and the back pointer.
+    #[inline]
+    fn glue(&mut self, t: TetId, i: usize, n: Option<(TetId, u8)>) {
+        self.tets[t].adj[i] = n;
+        if let Some((u, j)) = n {
+            self.tets[u].adj[j as usize] = Some((t, i as u8));
+        }
+    }
+
+    /// 1-4 split of `t` by the new vertex `p` (already stored), which the caller located
+    /// strictly inside: tet k is t with vertex k replaced by p; it reuses t's slot for k = 0.
+    /// Pushes the four tets.
+    fn split14_raw(&mut self, t: TetId, p: TVertexId, out: &mut Vec<TetId>) {
+        let tx = self.tets[t];
+        let mut n = [t; 4];
+        for k in 1..4 {
+            let mut v = tx.v;
+            v[k] = p;
+            n[k] = self.tets.insert(Tet {
+                v,
+                adj: [None; 4],
+                label: tx.label,
+            });
+        }
+        self.tets[t].v[0] = p;
+        for k in 0..4 {
+            // Face k (opposite p) is t's face k; face j != k is shared with tet j's face k.
+            self.glue(n[k], k, tx.adj[k]);
+            for j in 0..4 {
+                if j != k {
+                    self.tets[n[k]].adj[j] = Some((n[j], k as u8));
+                }
+            }
+        }
+        self.vertices[tx.v[0]].tet = n[1];
+        self.vertices[p].tet = t;
+        out.extend_from_slice(&n);
+    }
+
+    /// 2-3 flip of face `ip` of `t` (opposite p) with `u` (face `j`, apex e), already checked
+    /// convex: (x, y, p, e) for the face's edges (x, y); reuses t's and u's slots.
+    fn flip23_raw(&mut self, t: TetId, ip: usize, u: TetId, j: usize, out: &mut Vec<TetId>) {
+        let (tx, ux) = (self.tets[t], self.tets[u]);
+        let p = tx.v[ip];
+        let e = ux.v[j];
+        let f = FACE_VERTICES[ip];
+        let abc = [tx.v[f[0]], tx.v[f[1]], tx.v[f[2]]];
+        // Outer neighbours: across (x, y, p) from t and (x, y, e) from u, z the third vertex.
+        let mut from_t = [None; 3];
+        let mut from_u = [None; 3];
+        for k in 0..3 {
+            let z = abc[(k + 2) % 3];
+            from_t[k] = tx.adj[tx.v.iter().position(|&w| w == z).expect("z in t")];
+            from_u[k] = ux.adj[ux.v.iter().position(|&w| w == z).expect("z in u")];
+        }
+        let n2 = self.tets.insert(Tet {
+            v: [abc[2], abc[0], p, e],
+            adj: [None; 4],
+            label: tx.label,
+        });
+        let n = [t, u, n2];
+        for k in 0..3 {
+            self.tets[n[k]].v = [abc[k], abc[(k + 1) % 3], p, e];
+        }
+        for k in 0..3 {
+            self.tets[n[k]].adj[0] = Some((n[(k + 1) % 3], 1));
+            self.tets[n[k]].adj[1] = Some((n[(k + 2) % 3], 0));
+            self.glue(n[k], 2, from_u[k]);
+            self.glue(n[k], 3, from_t[k]);
+        }
+        self.vertices[abc[0]].tet = t;
+        self.vertices[abc[1]].tet = t;
+        self.vertices[abc[2]].tet = u;
+        out.extend_from_slice(&n);
+    }
+
+    /// 3-2 flip of the edge (x, y) held by exactly t = (x, y, z, p), u = (x, y, z, e) and
+    /// w = (x, y, p, e), already checked: t becomes t with y -> e, u becomes t with x -> e, w
+    /// goes.
+    #[allow(clippy::too_many_arguments)]
+    fn flip32_raw(
+        &mut self,
+        t: TetId,
+        u: TetId,
+        w: TetId,
+        x: TVertexId,
+        y: TVertexId,
+        e: TVertexId,
+        out: &mut Vec<TetId>,
+    ) {
+        let (tx, ux, wx) = (self.tets[t], self.tets[u], self.tets[w]);
+        let at = |v: &[TVertexId; 4], q: TVertexId| {
+            v.iter().position(|&s| s == q).expect("vertex in tet")
+        };
+        let (ix, iy) = (at(&tx.v, x), at(&tx.v, y));
+        let iz = (0..4)
+            .find(|&k| k != ix && k != iy && tx.v[k] != e && ux.v.contains(&tx.v[k]))
+            .expect("z");
+        let ip = 6 - ix - iy - iz;
+        let mut v1 = tx.v;
+        v1[iy] = e;
+        let mut v2 = tx.v;
+        v2[ix] = e;
+        // Outer neighbours, read before any write.
+        let t1 = [
+            (iy, tx.adj[iy]),
+            (iz, wx.adj[at(&wx.v, y)]),
+            (ip, ux.adj[at(&ux.v, y)]),
+        ];
+        let t2 = [
+            (ix, tx.adj[ix]),
+            (iz, wx.adj[at(&wx.v, x)]),
+            (ip, ux.adj[at(&ux.v, x)]),
+        ];
+        self.tets.remove(w);
+        self.tets[t].v = v1;
+        self.tets[u].v = v2;
+        self.tets[t].adj[ix] = Some((u, iy as u8));
+        self.tets[u].adj[iy] = Some((t, ix as u8));
+        for (k, n) in t1 {
+            self.glue(t, k, n);
+        }
+        for (k, n) in t2 {
+            self.glue(u, k, n);
+        }
+        for q in v1 {
+            self.vertices[q].tet = t;
+        }
+        self.vertices[y].tet = u;
+        out.push(t);
+        out.push(u);
     }
 
     /// Inserts `p` by emptying the tets whose circumsphere strictly holds it, grown from `t`
