@@ -472,3 +472,32 @@ fn delaunay_is_invariant_under_translation_and_scaling() {
         (m2.num_tets(), m2.num_edges())
     );
 }
+
+#[test]
+fn flip44_on_a_four_shell() {
+    let mut m = edge_shell(4);
+    let v = vids(&m);
+    let (t, e) = edge_of(&m, v[0], v[1]);
+    let made = m.flip44(t, e).unwrap();
+    assert_eq!(made.len(), 4);
+    m.validate(Level::Geometry).unwrap();
+    assert!(m.find_edge(v[0], v[1]).is_none());
+    assert!(m.find_edge(v[2], v[4]).is_some() || m.find_edge(v[3], v[5]).is_some());
+    let mut m = edge_shell(5);
+    let v = vids(&m);
+    let (t, e) = edge_of(&m, v[0], v[1]);
+    assert_eq!(m.flip44(t, e).err(), Some(Refusal::NotConvex));
+}
+
+#[test]
+fn revision_counts_writes_only() {
+    let mut m = tet_pair();
+    let r0 = m.revision();
+    let t = m.tet_ids().next().unwrap();
+    let i = (0..4).find(|&i| m.neighbour(t, i).is_none()).unwrap();
+    assert!(m.flip23(t, i).is_err());
+    assert_eq!(m.revision(), r0);
+    let (t, i) = first_interior_face(&m);
+    m.flip23(t, i).unwrap();
+    assert_ne!(m.revision(), r0);
+}

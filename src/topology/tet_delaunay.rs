@@ -524,6 +524,7 @@ impl TetMesh {
     /// strictly inside: tet k is t with vertex k replaced by p; it reuses t's slot for k = 0.
     /// Pushes the four tets.
     fn split14_raw(&mut self, t: TetId, p: TVertexId, out: &mut Vec<TetId>) {
+        self.revision = self.revision.wrapping_add(1);
         let tx = self.tets[t];
         let mut n = [t; 4];
         for k in 1..4 {
@@ -553,6 +554,7 @@ impl TetMesh {
     /// 2-3 flip of face `ip` of `t` (opposite p) with `u` (face `j`, apex e), already checked
     /// convex: (x, y, p, e) for the face's edges (x, y); reuses t's and u's slots.
     fn flip23_raw(&mut self, t: TetId, ip: usize, u: TetId, j: usize, out: &mut Vec<TetId>) {
+        self.revision = self.revision.wrapping_add(1);
         let (tx, ux) = (self.tets[t], self.tets[u]);
         let p = tx.v[ip];
         let e = ux.v[j];
@@ -601,6 +603,7 @@ impl TetMesh {
         e: TVertexId,
         out: &mut Vec<TetId>,
     ) {
+        self.revision = self.revision.wrapping_add(1);
         let (tx, ux, wx) = (self.tets[t], self.tets[u], self.tets[w]);
         let at = |v: &[TVertexId; 4], q: TVertexId| {
             v.iter().position(|&s| s == q).expect("vertex in tet")

@@ -40,6 +40,8 @@ pub struct TetPatch {
     moved: Option<(TVertexId, DVec3)>,
     /// Worst radius ratio among the new tets.
     pub min_quality: f64,
+    /// The mesh revision the plan was checked against (none for crate-private fast paths).
+    revision: Option<u64>,
 }
 
 impl TetPatch {
@@ -57,6 +59,7 @@ impl TetPatch {
             add,
             moved: None,
             min_quality: 0.0,
+            revision: None,
         }
     }
     /// Number of tets the patch removes.
@@ -89,6 +92,10 @@ impl TetMesh {
 
     /// Applies a checked patch and returns the new tets (and the new vertex, if any).
     pub fn apply_patch(&mut self, plan: TetPatch) -> (SmallVec<[TetId; 16]>, Option<TVertexId>) {
+        if let Some(r) = plan.revision {
+            debug_assert_eq!(r, self.revision, "apply_patch: the plan is stale");
+        }
+        self.revision = self.revision.wrapping_add(1);
         let sub = |v: TVertexId| match plan.subst {
             Some((a, b)) if v == a => b,
             _ => v,
@@ -189,7 +196,40 @@ impl TetMesh {
         if let Some(v) = plan.remove {
             self.vertices.remove(v);
         }
+        #[cfg(debug_assertions)]
+        self.check_around(&made);
         (made, newv)
+    }
+
+    /// Debug builds: the invariants around freshly written tets (mutual neighbours, matching
+    /// face indices and vertices, vertex pointers, exact positive orientation).
+    #[cfg(debug_assertions)]
+    pub(crate) fn check_around(&self, tets: &[TetId]) {
+        for &t in tets {
+            let tx = &self.tets[t];
+            assert_eq!(
+                self.tet_orientation(t),
+                Sign::Positive,
+                "check_around: tet not positive"
+            );
+            for i in 0..4 {
+                assert!(
+                    self.tets.contains_key(self.vertices[tx.v[i]].tet),
+                    "check_around: dead vertex pointer"
+                );
+                if let Some((u, j)) = tx.adj[i] {
+                    assert_eq!(
+                        self.tets[u].adj[j as usize],
+                        Some((t, i as u8)),
+                        "check_around: neighbours"
+                    );
+                    assert_eq!(
+                        face_key(self.face_vertices(t, i)),
+                        face_key(self.face_vertices(u, j as usize))
+                    );
+                }
+            }
+        }
     }
 
     /// Orientation checks of would-be tets; `p` is the position of the null (new) vertex and
@@ -228,6 +268,7 @@ impl TetMesh {
             add: None,
             moved: None,
             min_quality: 0.0,
+            revision: Some(self.revision),
         }
     }
 
@@ -406,6 +447,35 @@ impl TetMesh {
             return Err(Refusal::NotConvex);
         }
         self.check_remove_edge_shell(&s)
+    }
+
+    /// Checks the 4-4 flip of edge `e` of `t`: an interior edge with exactly four tets around
+    /// it is replaced by the better of the two diagonals of its ring quad.
+    ///
+    /// ```text
+    ///     c1 ------ c2            c1 ------ c2
+    ///     |  \ a-b /  |    ==>    |       /  |     4 tets around a-b become 4 tets
+    ///     |  / (x) \  |           |     /    |     around c0-c2 or c1-c3
+    ///     c0 ------ c3            c0 ------ c3
+    /// ```
+    pub fn check_flip44(&self, t: TetId, e: usize) -> Result<TetPatch, Refusal> {
+        self.live_tet(t)?;
+        let [i, j] = *EDGE_VERTICES.get(e).ok_or(Refusal::StaleKey)?;
+        let s = self.edge_shell(t, i, j);
+        if !s.closed {
+            return Err(Refusal::BoundaryEdge);
+        }
+        // Only an edge of degree four.
+        if s.tets.len() != 4 {
+            return Err(Refusal::NotConvex);
+        }
+        self.check_remove_edge_shell(&s)
+    }
+
+    /// 4-4 flip of edge `e` of `t` if allowed; returns the four new tets.
+    pub fn flip44(&mut self, t: TetId, e: usize) -> Result<SmallVec<[TetId; 16]>, Refusal> {
+        let plan = self.check_flip44(t, e)?;
+        Ok(self.apply_patch(plan).0)
     }
 
     /// 3-2 flip of edge `e` of `t` if allowed; returns the two new tets.
@@ -718,6 +788,7 @@ impl TetMesh {
     pub fn relocate(&mut self, v: TVertexId, p: DVec3) -> Result<(), Refusal> {
         self.check_relocate(v, p)?;
         self.vertices[v].pos = p;
+        self.revision = self.revision.wrapping_add(1);
         Ok(())
     }
 }

@@ -93,6 +93,8 @@ impl EdgeShell {
 pub struct TetMesh {
     pub(crate) vertices: SlotMap<TVertexId, TVertex>,
     pub(crate) tets: SlotMap<TetId, Tet>,
+    /// Bumped by every write; a plan remembers the revision it was checked against.
+    pub(crate) revision: u64,
 }
 
 impl PartialEq for TetMesh {
@@ -149,6 +151,7 @@ impl TetMesh {
         TetMesh {
             vertices: SlotMap::with_capacity_and_key(n),
             tets: SlotMap::with_capacity_and_key(7 * n + 8),
+            revision: 0,
         }
     }
 
@@ -175,6 +178,10 @@ impl TetMesh {
     #[inline]
     pub fn vertex(&self, v: TVertexId) -> &TVertex {
         &self.vertices[v]
+    }
+    /// The revision counter: it changes with every successful write.
+    pub fn revision(&self) -> u64 {
+        self.revision
     }
     /// The tet record.
     #[inline]
