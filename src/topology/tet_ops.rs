@@ -165,7 +165,7 @@ impl TetMesh {
                 }
             }
         }
-        debug_assert!(pending.is_empty(), "patch left unmatched faces");
+        // Faces still pending are new boundary faces (a split of a boundary edge makes two).
         // Outside faces that met no new tet pair up with each other (a collapse squeezes a
         // removed tet's two outer faces together).
         for k in 0..ext.len() {
@@ -175,7 +175,10 @@ impl TetMesh {
             ext[k].2 = true;
             let key = ext[k].0;
             let other = (k + 1..ext.len()).find(|&m| !ext[m].2 && ext[m].0 == key);
-            debug_assert!(other.is_some(), "patch left an outside face unmatched");
+            debug_assert!(
+                other.is_some() || ext[k].1.is_none(),
+                "patch left an outside neighbour unmatched"
+            );
             if let Some(m) = other {
                 ext[m].2 = true;
                 let (x, y) = (ext[k].1, ext[m].1);
