@@ -26,6 +26,8 @@ pub(crate) fn positive(s: Sign) -> Result<(), Refusal> {
 }
 
 type NewTets = SmallVec<[([TVertexId; 4], u32); 16]>;
+/// Outside faces of a patch: key, what lies across, matched yet.
+type OuterFaces = SmallVec<[([TVertexId; 3], Option<(TetId, u8)>, bool); 24]>;
 
 /// A checked replacement of `old` tets by `new` ones (with labels). `subst` renames a vertex in
 /// the faces outside (a collapse); `remove` is a vertex that disappears; `add` a vertex that
@@ -101,7 +103,7 @@ impl TetMesh {
             _ => v,
         };
         // Faces of the region's boundary, with what lies across them.
-        let mut ext: SmallVec<[([TVertexId; 3], Option<(TetId, u8)>, bool); 24]> = SmallVec::new();
+        let mut ext: OuterFaces = SmallVec::new();
         for &t in &plan.old {
             let tx = self.tets[t];
             for i in 0..4 {
@@ -327,6 +329,7 @@ impl TetMesh {
     ///       \  /    \  /
     ///        c5-----c4
     /// ```
+    #[allow(clippy::needless_range_loop)]
     pub fn check_remove_edge_shell(&self, s: &EdgeShell) -> Result<TetPatch, Refusal> {
         if !s.closed {
             return Err(Refusal::BoundaryEdge);
@@ -665,6 +668,7 @@ impl TetMesh {
     /// The link condition for collapsing a-b, with the boundary as a vertex at infinity (the
     /// null key): common link vertices must be ring vertices, common link edges ring edges,
     /// and there is no common link triangle.
+    #[allow(clippy::needless_range_loop)]
     fn link_condition(
         &self,
         a: TVertexId,
