@@ -501,3 +501,51 @@ fn revision_counts_writes_only() {
     m.flip23(t, i).unwrap();
     assert_ne!(m.revision(), r0);
 }
+
+/// Degenerate inputs: cubic grids (cospherical and coplanar everywhere, 4-4 flips needed),
+/// points on a sphere, and lattice points with duplicates.
+#[test]
+fn delaunay_of_degenerate_points() {
+    for n in 2..8usize {
+        let mut pts = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                for k in 0..n {
+                    pts.push(DVec3::new(i as f64, j as f64, k as f64));
+                }
+            }
+        }
+        let (m, ids) = TetMesh::delaunay(&pts).unwrap();
+        m.validate(Level::Delaunay).unwrap();
+        assert!(
+            (m.volume() - ((n - 1) * (n - 1) * (n - 1)) as f64).abs() < 1e-9,
+            "grid {n}: volume {}",
+            m.volume()
+        );
+        assert_eq!(m.to_boundary_trimesh().unwrap().euler_characteristic(), 2);
+        assert!(ids.iter().zip(&pts).all(|(&v, &p)| m.pos(v) == p));
+    }
+    let mut r = testing::Rng::new(testing::SEED);
+    let pts: Vec<DVec3> = (0..2000)
+        .map(|_| DVec3::new(r.f64() - 0.5, r.f64() - 0.5, r.f64() - 0.5).normalize())
+        .collect();
+    let (m, ids) = TetMesh::delaunay(&pts).unwrap();
+    m.validate(Level::Delaunay).unwrap();
+    assert!(ids.iter().all(|&v| m.contains_vertex(v)));
+    let pts: Vec<DVec3> = (0..3000)
+        .map(|_| {
+            DVec3::new(
+                (r.next_u64() % 8) as f64,
+                (r.next_u64() % 8) as f64,
+                (r.next_u64() % 8) as f64,
+            )
+        })
+        .collect();
+    let (m, ids) = TetMesh::delaunay(&pts).unwrap();
+    m.validate(Level::Delaunay).unwrap();
+    assert!(ids
+        .iter()
+        .zip(&pts)
+        .all(|(&v, &p)| m.contains_vertex(v) && m.pos(v) == p));
+    assert!((m.volume() - 343.0).abs() < 1e-9);
+}

@@ -452,13 +452,53 @@ impl TetMesh {
             let abc = [tx.v[f[0]], tx.v[f[1]], tx.v[f[2]]];
             let pabc = [q[f[0]], q[f[1]], q[f[2]]];
             let mut neg = SmallVec::<[usize; 3]>::new();
-            let mut zero = false;
+            let mut zeros = SmallVec::<[usize; 3]>::new();
             for k in 0..3 {
                 match orient3d(pabc[k], pabc[(k + 1) % 3], pp, pe) {
                     Sign::Positive => {}
                     Sign::Negative => neg.push(k),
-                    Sign::Zero => zero = true,
+                    Sign::Zero => zeros.push(k),
                 }
+            }
+            let zero = !zeros.is_empty();
+            if neg.is_empty() && zeros.len() == 1 {
+                // p, x, y, e coplanar: a 4-4 flip of the edge (x, y) when four tets hold it.
+                let k = zeros[0];
+                let (x, y) = (abc[k], abc[(k + 1) % 3]);
+                let ix = tx.v.iter().position(|&w| w == x).expect("x");
+                let iy = tx.v.iter().position(|&w| w == y).expect("y");
+                let sh = self.edge_shell(t, ix, iy);
+                if sh.closed && sh.tets.len() == 4 {
+                    if let Some(r0) = sh.ring.iter().position(|&w| w == p) {
+                        let r = |m: usize| sh.ring[(r0 + m) % 4];
+                        if r(2) == e {
+                            let tris = [[r(0), r(1), r(2)], [r(2), r(3), r(0)]];
+                            let mut new: SmallVec<[([TVertexId; 4], u32); 16]> = SmallVec::new();
+                            for [ci, cj, ck] in tris {
+                                new.push(([sh.a, ci, cj, ck], tx.label));
+                                new.push(([ci, cj, ck, sh.b], tx.label));
+                            }
+                            let ok = new.iter().all(|(v, _)| {
+                                orient3d(
+                                    self.pos(v[0]),
+                                    self.pos(v[1]),
+                                    self.pos(v[2]),
+                                    self.pos(v[3]),
+                                ) == Sign::Positive
+                            });
+                            if ok {
+                                let (made, _) = self.apply_patch(TetPatch::raw(
+                                    sh.tets.iter().copied().collect(),
+                                    new,
+                                    None,
+                                ));
+                                last = made[0];
+                                stack.extend(made);
+                            }
+                        }
+                    }
+                }
+                continue;
             }
             if neg.is_empty() && !zero {
                 // 2-3: (a, b, p, e), (b, c, p, e), (c, a, p, e).
