@@ -44,9 +44,17 @@ pub fn hilbert_order_3d(points: &[DVec3]) -> Vec<usize> {
     };
     // A fixed shuffle, so the order is deterministic.
     let mut idx: Vec<usize> = (0..n).collect();
-    let mut r = crate::testing::Rng::new(0x6272_696f);
+    // SplitMix64 with a fixed seed.
+    let mut state: u64 = 0x6272_696f;
+    let mut next = || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    };
     for i in (1..n).rev() {
-        let j = (r.next_u64() % (i as u64 + 1)) as usize;
+        let j = (next() % (i as u64 + 1)) as usize;
         idx.swap(i, j);
     }
     let mut ends = vec![n];
