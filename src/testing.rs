@@ -232,6 +232,20 @@ pub fn edge_shell(n: usize) -> TetMesh {
     TetMesh::from_arrays(&p, &t).expect("valid").0
 }
 
+/// The Delaunay tetrahedralization of an n x n x n grid of unit spacing (degenerate: many
+/// coplanar and cospherical points).
+pub fn tet_grid(n: usize) -> TetMesh {
+    let mut p = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                p.push(DVec3::new(i as f64, j as f64, k as f64));
+            }
+        }
+    }
+    TetMesh::delaunay(&p).expect("grid").0
+}
+
 /// One local operation on a [`TetMesh`], with element choices taken modulo the live counts.
 #[derive(Clone, Copy, Debug, Arbitrary, PartialEq)]
 pub enum TetOp {
@@ -334,14 +348,15 @@ pub fn check_tet_ops(m: &mut TetMesh, ops: &[TetOp]) {
 pub fn run_tet_ops(data: &[u8]) {
     let mut u = Unstructured::new(data);
     let kind: u8 = u.arbitrary().unwrap_or(0);
-    let mut m = match kind % 4 {
+    let mut m = match kind % 5 {
         0 => single_tet(),
         1 => tet_pair(),
-        2 => edge_shell(3 + (kind as usize / 4) % 6),
-        _ => {
-            let n = 5 + (kind as usize / 4) % 40;
+        2 => edge_shell(3 + (kind as usize / 5) % 6),
+        3 => {
+            let n = 5 + (kind as usize / 5) % 40;
             TetMesh::delaunay(&random_points_3d(n, kind as u64)).expect("random points").0
         }
+        _ => tet_grid(2 + (kind as usize / 5) % 3),
     };
     let mut ops = Vec::new();
     while let Ok(op) = u.arbitrary::<TetOp>() {
