@@ -549,3 +549,39 @@ fn delaunay_of_degenerate_points() {
         .all(|(&v, &p)| m.contains_vertex(v) && m.pos(v) == p));
     assert!((m.volume() - 343.0).abs() < 1e-9);
 }
+
+#[test]
+fn boundary_tags_protect_the_hull() {
+    let (mut m, _) = TetMesh::delaunay(&random_points_3d(80, testing::SEED)).unwrap();
+    let n = m.tag_boundary_vertices();
+    assert!(n > 0 && n < m.num_vertices());
+    assert_eq!(
+        m.vertex_ids()
+            .filter(|&v| m.tag(v) == VertexTag::Boundary)
+            .count(),
+        n
+    );
+    assert!(m
+        .vertex_ids()
+        .all(|v| (m.tag(v) == VertexTag::Boundary) == m.is_boundary_vertex(v)));
+    // With tags set, no collapse may move a hull vertex off the hull: every accepted collapse
+    // keeps the hull volume.
+    let vol = m.volume();
+    let tets: Vec<TetId> = m.tet_ids().collect();
+    let mut accepted = 0;
+    for t in tets {
+        for e in 0..6 {
+            if !m.contains_tet(t) {
+                break;
+            }
+            let [i, j] = EDGE_VERTICES[e];
+            let (a, b) = (m.tet(t).v[i], m.tet(t).v[j]);
+            if m.tag(a) == VertexTag::Interior && m.collapse(t, e, false, m.pos(b)).is_ok() {
+                accepted += 1;
+                m.validate(Level::Geometry).unwrap();
+            }
+        }
+    }
+    assert!(accepted > 0);
+    assert!((m.volume() - vol).abs() < 1e-9);
+}

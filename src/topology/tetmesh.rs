@@ -210,6 +210,20 @@ impl TetMesh {
     pub fn set_tag(&mut self, v: TVertexId, tag: VertexTag) {
         self.vertices[v].tag = tag;
     }
+    /// Tags every vertex of a boundary face `Boundary` (unless `Fixed`); returns how many.
+    pub fn tag_boundary_vertices(&mut self) -> usize {
+        let mut n = 0;
+        for (t, i) in self.boundary_faces() {
+            for v in self.face_vertices(t, i) {
+                let tag = &mut self.vertices[v].tag;
+                if !matches!(tag, VertexTag::Boundary | VertexTag::Fixed) {
+                    *tag = VertexTag::Boundary;
+                    n += 1;
+                }
+            }
+        }
+        n
+    }
     /// Subdomain label of a tet.
     pub fn label(&self, t: TetId) -> u32 {
         self.tets[t].label
