@@ -203,3 +203,179 @@ pub fn run_ops(data: &[u8]) {
     }
     check_ops(&mut m, &ops);
 }
+
+// ===================== tetrahedral engine =====================
+
+use crate::topology::{TVertexId, TetId, TetMesh, EDGE_VERTICES};
+use glam::DVec3;
+
+/// `n` uniform random points in the unit cube.
+pub fn random_points_3d(n: usize, seed: u64) -> Vec<DVec3> {
+    let mut r = Rng::new(seed);
+    (0..n).map(|_| DVec3::new(r.f64(), r.f64(), r.f64())).collect()
+}
+
+/// One positive tetrahedron.
+pub fn single_tet() -> TetMesh {
+    let p = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.1, 0.0), DVec3::new(0.2, 0.9, 0.1), DVec3::new(0.3, 0.2, 0.8)];
+    TetMesh::from_arrays(&p, &[[0, 1, 2, 3]]).expect("valid").0
+}
+
+/// Two tets sharing the face (0, 1, 2), apexes 3 above and 4 below: a convex pair (2-3 flippable).
+pub fn tet_pair() -> TetMesh {
+    let p = [
+        DVec3::new(0.0, 0.0, 0.0),
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(0.4, 0.9, 0.0),
+        DVec3::new(0.45, 0.3, 0.8),
+        DVec3::new(0.5, 0.35, -0.7),
+    ];
+    TetMesh::from_arrays(&p, &[[0, 1, 2, 3], [0, 2, 1, 4]]).expect("valid").0
+}
+
+/// `n` tets around the interior edge from (0, 0, -1) to (0, 0, 1), ring on the unit circle.
+pub fn edge_shell(n: usize) -> TetMesh {
+    let mut p = vec![DVec3::new(0.0, 0.0, -1.0), DVec3::new(0.0, 0.0, 1.0)];
+    for k in 0..n {
+        let a = std::f64::consts::TAU * k as f64 / n as f64;
+        p.push(DVec3::new(a.cos(), a.sin(), 0.0));
+    }
+    let t: Vec<[usize; 4]> = (0..n).map(|k| [0, 1, 2 + k, 2 + (k + 1) % n]).collect();
+    TetMesh::from_arrays(&p, &t).expect("valid").0
+}
+
+/// The Delaunay tetrahedralization of an n x n x n grid of unit spacing (degenerate: many
+/// coplanar and cospherical points).
+pub fn tet_grid(n: usize) -> TetMesh {
+    let mut p = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..n {
+                p.push(DVec3::new(i as f64, j as f64, k as f64));
+            }
+        }
+    }
+    TetMesh::delaunay(&p).expect("grid").0
+}
+
+/// One local operation on a [`TetMesh`], with element choices taken modulo the live counts.
+#[derive(Clone, Copy, Debug, Arbitrary, PartialEq)]
+pub enum TetOp {
+    /// 2-3 flip of face f % 4 of the k-th tet.
+    Flip23(u16, u8),
+    /// 3-2 flip of edge e % 6 of the k-th tet.
+    Flip32(u16, u8),
+    /// Edge removal (dynamic programming) of edge e % 6 of the k-th tet.
+    RemoveEdge(u16, u8),
+    /// Split edge e % 6 of the k-th tet at parameter t/255.
+    Split(u16, u8, u8),
+    /// Collapse edge e % 6 of the k-th tet (direction by the flag); survivor at t/255.
+    Collapse(u16, u8, bool, u8),
+    /// Insert in the k-th tet at barycentric weights from (u, v, w).
+    Insert(u16, u8, u8, u8),
+    /// Move the k-th vertex by (dx, dy, dz)/64 of its shortest edge.
+    Relocate(u16, i8, i8, i8),
+}
+
+/// Applies one [`TetOp`].
+pub fn apply_tet_op(m: &mut TetMesh, op: TetOp) -> Result<(), Refusal> {
+    fn nth_tet(m: &TetMesh, k: u16) -> Result<TetId, Refusal> {
+        let n = m.num_tets();
+        if n == 0 {
+            return Err(Refusal::StaleKey);
+        }
+        m.tet_ids().nth(k as usize % n).ok_or(Refusal::StaleKey)
+    }
+    fn nth_vertex(m: &TetMesh, k: u16) -> Result<TVertexId, Refusal> {
+        let n = m.num_vertices();
+        if n == 0 {
+            return Err(Refusal::StaleKey);
+        }
+        m.vertex_ids().nth(k as usize % n).ok_or(Refusal::StaleKey)
+    }
+    let edge_point = |m: &TetMesh, t: TetId, e: u8, s: u8, rev: bool| {
+        let [mut i, mut j] = EDGE_VERTICES[e as usize % 6];
+        if rev {
+            std::mem::swap(&mut i, &mut j);
+        }
+        let v = m.tet(t).v;
+        m.pos(v[i]).lerp(m.pos(v[j]), s as f64 / 255.0)
+    };
+    match op {
+        TetOp::Flip23(k, f) => {
+            let t = nth_tet(m, k)?;
+            m.flip23(t, f as usize % 4).map(|_| ())
+        }
+        TetOp::Flip32(k, e) => {
+            let t = nth_tet(m, k)?;
+            m.flip32(t, e as usize % 6).map(|_| ())
+        }
+        TetOp::RemoveEdge(k, e) => {
+            let t = nth_tet(m, k)?;
+            m.remove_edge(t, e as usize % 6).map(|_| ())
+        }
+        TetOp::Split(k, e, s) => {
+            let t = nth_tet(m, k)?;
+            let p = edge_point(m, t, e, s, false);
+            m.split_edge(t, e as usize % 6, p).map(|_| ())
+        }
+        TetOp::Collapse(k, e, rev, s) => {
+            let t = nth_tet(m, k)?;
+            // Survivor b ends on the chord; parameter measured from a.
+            let p = edge_point(m, t, e, s, rev);
+            m.collapse(t, e as usize % 6, rev, p).map(|_| ())
+        }
+        TetOp::Insert(k, u, v, w) => {
+            let t = nth_tet(m, k)?;
+            let q = m.tet_points(t);
+            let wt = [1.0 + u as f64, 1.0 + v as f64, 1.0 + w as f64, 256.0];
+            let p = (q[0] * wt[0] + q[1] * wt[1] + q[2] * wt[2] + q[3] * wt[3]) / wt.iter().sum::<f64>();
+            m.insert_in_tet(t, p).map(|_| ())
+        }
+        TetOp::Relocate(k, dx, dy, dz) => {
+            let v = nth_vertex(m, k)?;
+            let len = m.vertex_neighbours(v).iter().map(|&w| m.pos(w).distance(m.pos(v))).fold(f64::INFINITY, f64::min);
+            let p = m.pos(v) + DVec3::new(dx as f64, dy as f64, dz as f64) * (len / 64.0);
+            m.relocate(v, p)
+        }
+    }
+}
+
+/// Runs `ops` on `m`, validating after every step; a refused op must leave the mesh unchanged.
+pub fn check_tet_ops(m: &mut TetMesh, ops: &[TetOp]) {
+    for (i, &op) in ops.iter().enumerate() {
+        let before = m.clone();
+        match apply_tet_op(m, op) {
+            Ok(()) => {
+                if let Err(e) = m.validate(Level::Geometry) {
+                    panic!("step {i} {op:?}: {e}");
+                }
+            }
+            Err(_) => assert!(*m == before, "step {i} {op:?}: a refused operation changed the mesh"),
+        }
+    }
+}
+
+/// The tet fuzz body: bytes choose a starting mesh and an operation sequence.
+pub fn run_tet_ops(data: &[u8]) {
+    let mut u = Unstructured::new(data);
+    let kind: u8 = u.arbitrary().unwrap_or(0);
+    let mut m = match kind % 5 {
+        0 => single_tet(),
+        1 => tet_pair(),
+        2 => edge_shell(3 + (kind as usize / 5) % 6),
+        3 => {
+            let n = 5 + (kind as usize / 5) % 40;
+            TetMesh::delaunay(&random_points_3d(n, kind as u64)).expect("random points").0
+        }
+        _ => tet_grid(2 + (kind as usize / 5) % 3),
+    };
+    let mut ops = Vec::new();
+    while let Ok(op) = u.arbitrary::<TetOp>() {
+        ops.push(op);
+        if ops.len() >= 128 || u.is_empty() {
+            break;
+        }
+    }
+    check_tet_ops(&mut m, &ops);
+}

@@ -1,4 +1,5 @@
-//! Mesh topology engines: the half-edge [`TriMesh`] for planar and surface triangles.
+//! Mesh topology engines: the half-edge [`TriMesh`] for planar and surface triangles, and the
+//! tetrahedral [`TetMesh`] with face neighbours.
 //!
 //! Topology never asks for what it does not need: navigation and the combinatorial half of every
 //! operation have no bound on the point type beyond [`MeshPoint`]; geometric validity is decided
@@ -10,6 +11,10 @@
 
 mod delaunay;
 mod queue;
+mod tet_delaunay;
+mod tet_ops;
+mod tet_validate;
+mod tetmesh;
 mod tri_ops;
 mod tri_validate;
 mod trimesh;
@@ -17,6 +22,9 @@ mod trimesh;
 pub use delaunay::hilbert_order;
 pub use queue::QualityQueue;
 pub use tri_ops::{CollapsePlan, FlipPlan, InsertPlan, SplitPlan};
+pub use tet_delaunay::hilbert_order_3d;
+pub use tet_ops::{Flip23Plan, Flip32Plan, TetPatch};
+pub use tetmesh::{EdgeShell, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_OPPOSITE, EDGE_VERTICES, FACE_VERTICES};
 pub use tri_validate::{Invariant, InvariantViolation, Level};
 pub use trimesh::{Face, HalfEdge, HalfEdgeId, FaceId, MeshPoint, TriMesh, Vertex, VertexId, VertexTag};
 
@@ -43,6 +51,10 @@ pub enum Refusal {
     TooSmall,
     /// A point that is not finite.
     NonFinite,
+    /// The face is on the boundary (3-D), where the operation is not allowed.
+    BoundaryFace,
+    /// The region is not convex enough: no valid set of new elements exists.
+    NotConvex,
 }
 
 impl std::fmt::Display for Refusal {
@@ -58,6 +70,8 @@ impl std::fmt::Display for Refusal {
             Refusal::DuplicateEdge => "the result would repeat an existing edge",
             Refusal::TooSmall => "the mesh is too small for the operation",
             Refusal::NonFinite => "the point is not finite",
+            Refusal::BoundaryFace => "the face is on the boundary",
+            Refusal::NotConvex => "no valid set of new elements exists (not convex)",
         };
         f.write_str(s)
     }

@@ -47,8 +47,23 @@ pub enum Invariant {
     IsolatedVertex,
     /// A face with non-positive exact orientation.
     InvertedFace,
-    /// An interior edge that fails the exact in-circle test.
+    /// An interior edge that fails the exact in-circle test (3-D: an interior face that fails
+    /// the exact in-sphere test).
     NotDelaunay,
+    /// 3-D: a tet names the same vertex twice.
+    TetRepeatsVertex,
+    /// 3-D: tet t has u across face i, but u does not have t across any face.
+    NeighbourNotMutual,
+    /// 3-D: u has t across its face j, but t's record of u names another face index.
+    FaceIndexMismatch,
+    /// 3-D: two neighbours do not hold the same three vertices on their shared face.
+    SharedFaceMismatch,
+    /// 3-D: a vertex's tet pointer names a tet that does not hold it.
+    VertexTetWrong,
+    /// 3-D: a boundary edge lies on other than exactly two boundary faces.
+    NonManifoldBoundary,
+    /// 3-D: a tet with non-positive exact orientation.
+    InvertedTet,
 }
 
 /// The invariant that broke and the element where it broke.
