@@ -489,17 +489,31 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             .into_par_iter()
             .with_min_len(256)
             .filter_map(|i| match snap.kind[i] {
-                // Boundary nodes move freely inside and are projected back when outside
-                // (seed step 7); the pressure keeps them on the boundary at equilibrium.
-                BOUNDARY => match ctx.approx_dist(newp[i]) {
-                    Ok(d) if d > 0.0 => match ctx.project(newp[i]) {
-                        Ok(Some(q)) => Some(Ok((i, q))),
-                        Ok(None) => Some(Ok((i, p[i]))),
-                        Err(e) => Some(Err(e)),
-                    },
-                    Ok(_) => None,
-                    Err(e) => Some(Err(e)),
-                },
+                // Boundary nodes inside move freely (the carved start's outer row) and are
+                // projected once outside (seed step 7), as the pressure keeps them there.
+                BOUNDARY => {
+                    let d = match ctx.approx_dist(newp[i]) {
+                        Ok(d) => d,
+                        Err(e) => return Some(Err(e)),
+                    };
+                    // Free inside only where the node could leave the boundary: over a concave
+                    // stretch (the chord of its neighbours outside) it is held on d = 0.
+                    let (a, c) = snap.loop_nbrs[i];
+                    let concave = a != u32::MAX
+                        && match ctx.approx_dist((p[a as usize] + p[c as usize]) * 0.5) {
+                            Ok(dc) => dc > -ctx.geps,
+                            Err(e) => return Some(Err(e)),
+                        };
+                    if d > 0.0 || concave {
+                        match ctx.project(newp[i]) {
+                            Ok(Some(q)) => Some(Ok((i, q))),
+                            Ok(None) => Some(Ok((i, p[i]))),
+                            Err(e) => Some(Err(e)),
+                        }
+                    } else {
+                        None
+                    }
+                }
                 INTERIOR => match ctx.approx_dist(newp[i]) {
                     Ok(d) if d > -ctx.geps => Some(Ok((i, p[i]))),
                     Ok(_) => None,
