@@ -13,6 +13,7 @@
 
 pub mod error;
 pub mod expr;
+pub mod gallery;
 pub mod geometry;
 pub mod io;
 pub mod mesher;

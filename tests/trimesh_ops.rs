@@ -117,7 +117,7 @@ fn collapse_refusals() {
     assert_eq!(m.collapse(h, m.pos(m.dest(h))), Err(Refusal::TooSmall));
     assert!(m == before);
     // Interior edge joining two boundary vertices pinches.
-    let mut m = grid(2, 1, 0.0, 1);
+    let m = grid(2, 1, 0.0, 1);
     let before = m.clone();
     let mut refused = 0;
     for h in m.half_edge_ids().collect::<Vec<_>>() {

@@ -1,6 +1,6 @@
 //! `trussmesh gallery`: every 2-D seed example meshed, pictured and tabulated.
 
-use super::examples::EXAMPLES;
+use trussmesh::gallery::EXAMPLES;
 use super::mesh::{parse_expr, write_output};
 use super::stats::compute;
 use super::{Cli, Command, Failure};
@@ -63,7 +63,7 @@ pub fn run(a: GalleryArgs) -> Result<(), Failure> {
     }
 }
 
-fn one(a: &GalleryArgs, ex: &super::examples::Example) -> Result<String, Failure> {
+fn one(a: &GalleryArgs, ex: &trussmesh::gallery::Example) -> Result<String, Failure> {
     let outs: Vec<String> = ["vtu", "msh", "json", "svg", "png"]
         .iter()
         .map(|ext| {

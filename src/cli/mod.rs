@@ -1,6 +1,6 @@
 //! The command line: subcommands, errors and exit codes (0 ok, 1 internal failure, 2 bad input).
 
-pub mod examples;
+
 mod gallery;
 mod mesh;
 mod stats;

@@ -10,8 +10,6 @@ use glam::DVec2;
 pub(crate) struct DomainSurvey {
     /// Estimated triangle count at the requested sizes.
     pub estimated_triangles: f64,
-    /// Estimated area of the domain.
-    pub area: f64,
     /// Smallest relative size sampled inside the domain.
     pub h_floor: f64,
 }
@@ -134,5 +132,6 @@ pub(crate) fn survey(domain: &dyn Implicit2, opts: &Options2) -> Result<DomainSu
     if estimated_triangles > opts.max_elements as f64 {
         return Err(Error::TooManyElements { estimated: estimated_triangles as u64, limit: opts.max_elements });
     }
-    Ok(DomainSurvey { estimated_triangles, area, h_floor })
+    let _ = area;
+    Ok(DomainSurvey { estimated_triangles, h_floor })
 }

@@ -198,13 +198,16 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>) -> Result<TriMesh<DVec2>, Error> {
     for (i, p) in points.iter().enumerate() {
         inside[i] = ctx.d(*p)? < ctx.geps;
     }
+    let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
     let mut keep: Vec<[usize; 3]> = Vec::with_capacity(tris.len());
     for t in &tris {
-        if t.iter().all(|&i| inside[i]) {
+        // Around fixed points (often corners on d = 0) the centroid decides, so they stay.
+        let touches_fixed = t.iter().any(|&i| fixed[i]);
+        let c = (points[t[0]] + points[t[1]] + points[t[2]]) / 3.0;
+        if t.iter().all(|&i| inside[i]) || (touches_fixed && ctx.d(c)? < -ctx.geps) {
             keep.push(*t);
         }
     }
-    let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
     // Pinched vertices (two fans) would break the manifold structure: drop the triangles of
     // every fan but the largest, and repeat until none is left.
     for _ in 0..64 {
@@ -242,7 +245,47 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>) -> Result<TriMesh<DVec2>, Error> {
         };
         out.set_tag(v, tag);
     }
+    restore_fixed(ctx, &mut out)?;
     Ok(out)
+}
+
+/// Fixed points whose triangles were all carved away go back in: inside the mesh by insertion,
+/// outside it by moving the nearest boundary vertex onto them.
+fn restore_fixed(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
+    use crate::topology::Location;
+    for &p in &ctx.opts.fixed {
+        if m.vertices().any(|(_, v)| v.tag == VertexTag::Fixed && v.pos == p) {
+            continue;
+        }
+        let start = m.face_ids().next().expect("the carved mesh has faces");
+        let v = match m.locate(p, start) {
+            Location::Vertex(v) => Some(v),
+            Location::Face(f) => m.insert_in_face(f, p).ok(),
+            Location::Edge(h) => m.split_edge(h, p).ok(),
+            Location::Outside(_) => {
+                let mut best: Option<(f64, VertexId)> = None;
+                for v in m.vertex_ids() {
+                    if m.is_boundary_vertex(v) && m.tag(v) != VertexTag::Fixed {
+                        let d = m.pos(v).distance(p);
+                        if best.is_none_or(|(bd, _)| d < bd) {
+                            best = Some((d, v));
+                        }
+                    }
+                }
+                best.and_then(|(_, v)| m.relocate(v, p).ok().map(|_| v))
+            }
+        };
+        match v {
+            Some(v) => m.set_tag(v, VertexTag::Fixed),
+            None => {
+                return Err(Error::Invalid(format!(
+                    "fixed point ({}, {}) could not be placed in the mesh: it is too close to another node or outside the domain",
+                    p.x, p.y
+                )))
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Vertices with more than one boundary edge leaving them in a triangle list.
@@ -414,7 +457,13 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                 val[((snap.adj_start[i + 1] - snap.adj_start[i]) as usize).min(11)] += 1;
             }
         }
-        eprintln!("start: q mean {:.5}, {} vertices, interior valences {:?}", mean_quality(&snap, &p), p.len(), val);
+        eprintln!(
+            "start: q mean {:.5}, {} vertices ({} fixed), interior valences {:?}",
+            mean_quality(&snap, &p),
+            p.len(),
+            snap.kind.iter().filter(|&&k| k == FIXED).count(),
+            val
+        );
     }
     while iter < opts.max_iter {
         iter += 1;
@@ -599,6 +648,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     // Final cleanup: repair bad triangles, restore Delaunay.
     density_control(ctx, m, unit)?;
     ctx.report.flips += m.make_delaunay();
+    settle_boundary(ctx, m)?;
     ctx.report.iterations = iter;
     ctx.report.converged = converged;
     if !converged {
@@ -674,6 +724,43 @@ fn change_membership(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, snap: &Snapshot, lea
         }
     }
     Ok(changed)
+}
+
+/// Boundary nodes that the guarded projection could not bring onto d = 0 (a notch the forces
+/// never closed) are projected one by one, or else merged into a boundary neighbour.
+fn settle_boundary(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
+    let tol = ctx.geps;
+    for _ in 0..3 {
+        let off: Vec<VertexId> = m
+            .vertex_ids()
+            .filter(|&v| m.tag(v) == VertexTag::Boundary && m.is_boundary_vertex(v))
+            .filter(|&v| ctx.approx_dist(m.pos(v)).map(|d| d.abs() > tol).unwrap_or(true))
+            .collect();
+        if off.is_empty() {
+            return Ok(());
+        }
+        for v in off {
+            if !m.contains_vertex(v) {
+                continue;
+            }
+            if let Some(q) = ctx.project(m.pos(v))? {
+                if m.relocate(v, q).is_ok() {
+                    continue;
+                }
+            }
+            let g = m.vertex(v).out;
+            let e = m.prev(g);
+            let targets = [(g, m.dest(g)), (m.twin(e), m.origin(e))];
+            for (h, w) in targets {
+                if m.collapse(h, m.pos(w)).is_ok() {
+                    ctx.report.collapses += 1;
+                    break;
+                }
+            }
+        }
+        ctx.report.flips += m.make_delaunay();
+    }
+    Ok(())
 }
 
 fn write_back(m: &mut TriMesh<DVec2>, snap: &Snapshot, p: &[DVec2]) {

@@ -1,5 +1,5 @@
-//! The seed's 2-D examples as data: the gallery meshes them and docs/cli.md lists them as
-//! commands (a test checks that the two agree and runs every command).
+//! The seed's 2-D examples as data: the gallery meshes them, docs/cli.md lists them as
+//! commands, and the quality tests check them (one definition for all three).
 
 /// One example: the `trussmesh mesh` flags that mesh it.
 #[derive(Debug, Clone, Copy)]
@@ -201,5 +201,60 @@ fn shell_quote(w: &str) -> String {
         w.to_string()
     } else {
         format!("'{}'", w.replace('\'', r"'\''"))
+    }
+}
+
+/// A constant expression (such as `0.05/3` or `-5*pi/2`) evaluated.
+fn constant(src: &str) -> Result<f64, crate::Error> {
+    let e = crate::expr::Expr::parse(src).map_err(|e| crate::Error::Invalid(format!("'{src}': {e}")))?;
+    let v = e.eval(0.0, 0.0, 0.0);
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(crate::Error::Invalid(format!("'{src}' is not a finite number")))
+    }
+}
+
+impl Example {
+    /// The geometry and options of this example, as the library takes them.
+    pub fn build(&self) -> Result<(crate::expr::ExprImplicit2, crate::mesher::Options2), crate::Error> {
+        use crate::expr::{Expr, ExprImplicit2};
+        let parse = |s: &str| Expr::parse(s).map_err(|e| crate::Error::Invalid(format!("'{s}': {e}")));
+        let mut domain = ExprImplicit2::new(parse(self.domain)?);
+        domain.distance = !self.implicit;
+        let b: Vec<f64> = self.bbox.split(',').map(constant).collect::<Result<_, _>>()?;
+        if b.len() != 4 {
+            return Err(crate::Error::Invalid(format!("bbox '{}' needs four values", self.bbox)));
+        }
+        let mut opts = crate::mesher::Options2::uniform(constant(self.h0)?, [b[0], b[1]], [b[2], b[3]]);
+        if let Some(s) = self.size {
+            let h = parse(s)?;
+            opts = opts.with_size(move |p| h.eval(p.x, p.y, 0.0));
+        }
+        if let Some(f) = self.fix {
+            let mut pts = Vec::new();
+            for pair in f.split(';').filter(|s| !s.trim().is_empty()) {
+                let xy: Vec<f64> = pair.split(',').map(|s| constant(s.trim())).collect::<Result<_, _>>()?;
+                if xy.len() != 2 {
+                    return Err(crate::Error::Invalid(format!("fixed point '{pair}' needs two values")));
+                }
+                pts.push([xy[0], xy[1]]);
+            }
+            opts = opts.with_fixed(pts);
+        }
+        Ok((domain, opts))
+    }
+
+    /// The exact area of the domain, where it is known.
+    pub fn exact_area(&self) -> Option<f64> {
+        use std::f64::consts::PI;
+        match self.name {
+            "ex1a" | "ex1b" | "ex1c" => Some(PI),
+            "ex2" => Some(PI * (1.0 - 0.16)),
+            "ex3a" | "ex3b" => Some(4.0 - PI * 0.16),
+            "ex4" => Some(3.0 * 3f64.sqrt() / 2.0 * (1.0 - 0.25)),
+            "ellipse" => Some(PI * 2.0),
+            _ => None,
+        }
     }
 }
