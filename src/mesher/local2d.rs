@@ -371,6 +371,12 @@ struct Snapshot {
     adj_start: Vec<u32>,
     adj: Vec<u32>,
     tris: Vec<[u32; 3]>,
+    tri_faces: Vec<crate::topology::FaceId>,
+    /// Every edge: endpoints, one half-edge, and whether it lies on the boundary.
+    edges: Vec<(u32, u32, HalfEdgeId, bool)>,
+    /// Flippable edges (interior, same label both sides): a, b, and the opposite c, d.
+    quads: Vec<[u32; 4]>,
+    quad_edges: Vec<HalfEdgeId>,
     /// Boundary neighbours (previous, next along the loop) of boundary vertices.
     loop_nbrs: Vec<(u32, u32)>,
     /// Triangles over a boundary edge a -> b with an interior apex v: (v, a, b).
@@ -392,31 +398,83 @@ impl Snapshot {
                 VertexTag::Interior => INTERIOR,
             });
         }
-        let mut adj_start = Vec::with_capacity(n + 1);
-        let mut adj = Vec::with_capacity(6 * n);
-        adj_start.push(0);
-        for &v in &ids {
-            for h in m.outgoing(v) {
-                adj.push(index[m.dest(h)]);
+        // Edges in one pass over the half-edges; the adjacency (CSR) is filled from them.
+        let mut edges = Vec::with_capacity(m.num_edges());
+        let mut quads = Vec::with_capacity(m.num_edges());
+        let mut quad_edges = Vec::with_capacity(m.num_edges());
+        let mut deg = vec![0u32; n + 1];
+        for h in m.edge_ids() {
+            let t = m.twin(h);
+            let (a, b) = (index[m.origin(h)], index[m.origin(t)]);
+            deg[a as usize] += 1;
+            deg[b as usize] += 1;
+            match (m.face_of(h), m.face_of(t)) {
+                (Some(f1), Some(f2)) => {
+                    edges.push((a, b, h, false));
+                    if m.face(f1).label == m.face(f2).label {
+                        let c = index[m.origin(m.prev(h))];
+                        let d = index[m.origin(m.prev(t))];
+                        quads.push([a, b, c, d]);
+                        quad_edges.push(h);
+                    }
+                }
+                _ => edges.push((a, b, h, true)),
             }
-            adj_start.push(adj.len() as u32);
         }
-        let tris = m.face_ids().map(|f| m.face_vertices(f).map(|v| index[v])).collect();
+        let mut adj_start = Vec::with_capacity(n + 1);
+        let mut acc = 0u32;
+        for &d in &deg[..n] {
+            adj_start.push(acc);
+            acc += d;
+        }
+        adj_start.push(acc);
+        let mut cursor: Vec<u32> = adj_start[..n].to_vec();
+        let mut adj = vec![0u32; acc as usize];
+        for &(a, b, _, _) in &edges {
+            adj[cursor[a as usize] as usize] = b;
+            cursor[a as usize] += 1;
+            adj[cursor[b as usize] as usize] = a;
+            cursor[b as usize] += 1;
+        }
+        let mut tris = Vec::with_capacity(m.num_faces());
+        let mut tri_faces = Vec::with_capacity(m.num_faces());
+        for f in m.face_ids() {
+            tris.push(m.face_vertices(f).map(|v| index[v]));
+            tri_faces.push(f);
+        }
         let mut loop_nbrs = vec![(u32::MAX, u32::MAX); ids.len()];
         let mut apexes = Vec::new();
-        for (i, &v) in ids.iter().enumerate() {
-            if m.is_boundary_vertex(v) {
-                let g = m.vertex(v).out;
-                loop_nbrs[i] = (index[m.origin(m.prev(g))], index[m.dest(g)]);
-                // The face over the boundary edge leaving v.
-                let h = m.twin(g); // c -> v, has the face
-                let apex = m.origin(m.prev(h));
-                if !m.is_boundary_vertex(apex) {
-                    apexes.push((index[apex], index[m.origin(h)], i as u32));
-                }
+        for &(_, _, h, boundary) in &edges {
+            if !boundary {
+                continue;
+            }
+            // g: the boundary half-edge of this edge, v -> c along the loop.
+            let g = if m.face_of(h).is_none() { h } else { m.twin(h) };
+            let v = index[m.origin(g)] as usize;
+            if m.vertex(m.origin(g)).out == g {
+                loop_nbrs[v] = (index[m.origin(m.prev(g))], index[m.dest(g)]);
+            }
+            let inner = m.twin(g); // c -> v, has the face
+            let apex = m.origin(m.prev(inner));
+            if !m.is_boundary_vertex(apex) {
+                apexes.push((index[apex], index[m.origin(inner)], v as u32));
             }
         }
-        Snapshot { ids, kind, adj_start, adj, tris, loop_nbrs, apexes }
+        Snapshot { ids, kind, adj_start, adj, tris, tri_faces, edges, quads, quad_edges, loop_nbrs, apexes }
+    }
+
+    /// Edges that fail the exact in-circle test at positions `p`, found in parallel.
+    fn non_delaunay(&self, p: &[DVec2]) -> Vec<HalfEdgeId> {
+        self.quads
+            .par_iter()
+            .zip(self.quad_edges.par_iter())
+            .with_min_len(CHUNK)
+            .filter(|(q, _)| {
+                let [a, b, c, d] = **q;
+                crate::predicates::incircle(p[a as usize], p[b as usize], p[c as usize], p[d as usize]) == Sign::Positive
+            })
+            .map(|(_, h)| *h)
+            .collect()
     }
 }
 
@@ -585,11 +643,14 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         let mut topo_changed = false;
         let far = (0..p.len()).any(|i| moved_since_check[i] > TTOL * h0 * hv[i]);
         if far {
-            write_back(m, &snap, &p);
             moved_since_check.iter_mut().for_each(|x| *x = 0.0);
-            let flips = m.make_delaunay();
-            ctx.report.flips += flips;
-            topo_changed |= flips > 0;
+            let bad = snap.non_delaunay(&p);
+            if !bad.is_empty() {
+                write_back(m, &snap, &p);
+                let flips = m.legalize(bad);
+                ctx.report.flips += flips;
+                topo_changed |= flips > 0;
+            }
         }
         // Boundary membership follows the forces, as in the seed's global retriangulation.
         if !leaving.is_empty() || !joining.is_empty() {
@@ -598,8 +659,11 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
         // Density control and repair of bad triangles.
         if iter % DENSITY_EVERY == 0 && iter < DENSITY_UNTIL {
-            write_back(m, &snap, &p);
-            topo_changed |= density_control(ctx, m, (sl / sh).sqrt())?;
+            let cands = density_candidates(ctx, &snap, &p, (sl / sh).sqrt())?;
+            if !cands.is_empty() {
+                write_back(m, &snap, &p);
+                topo_changed |= density_control(ctx, m, cands)?;
+            }
             unit = (sl / sh).sqrt();
         }
         if topo_changed {
@@ -646,7 +710,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     project_boundary(ctx, &snap, &mut p, m)?;
     write_back(m, &snap, &p);
     // Final cleanup: repair bad triangles, restore Delaunay.
-    density_control(ctx, m, unit)?;
+    let snap = Snapshot::build(m);
+    let p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
+    let cands = density_candidates(ctx, &snap, &p, unit)?;
+    density_control(ctx, m, cands)?;
     ctx.report.flips += m.make_delaunay();
     settle_boundary(ctx, m)?;
     ctx.report.iterations = iter;
@@ -831,34 +898,74 @@ fn guard_inversions(snap: &Snapshot, old: &[DVec2], newp: &mut [DVec2]) {
     }
 }
 
+/// Edges to split, edges to collapse and faces to repair, found in parallel on the snapshot.
+struct Candidates {
+    long: Vec<(f64, HalfEdgeId)>,
+    short: Vec<(f64, HalfEdgeId)>,
+    bad: Vec<(f64, crate::topology::FaceId)>,
+}
+
+impl Candidates {
+    fn is_empty(&self) -> bool {
+        self.long.is_empty() && self.short.is_empty() && self.bad.is_empty()
+    }
+}
+
+fn density_candidates(ctx: &Ctx, snap: &Snapshot, p: &[DVec2], unit: f64) -> Result<Candidates, Error> {
+    let h0 = ctx.opts.h0;
+    // (ratio, edge, +1 long / -1 short)
+    let marks: Vec<(f64, HalfEdgeId, i8)> = snap
+        .edges
+        .par_iter()
+        .with_min_len(CHUNK)
+        .filter_map(|&(a, b, h, boundary)| {
+            let (pa, pb) = (p[a as usize], p[b as usize]);
+            let hm = match ctx.h((pa + pb) * 0.5) {
+                Ok(v) => v,
+                Err(e) => return Some(Err(e)),
+            };
+            let r = pa.distance(pb) / (h0 * hm);
+            if r > SPLIT_ABOVE {
+                Some(Ok((r, h, 1)))
+            } else if r < COLLAPSE_BELOW {
+                Some(Ok((r, h, -1)))
+            } else if boundary {
+                // Boundary spacing follows the mesh's own current scale (the interior sets it):
+                // the carved start may have too many boundary nodes.
+                let rb = pa.distance(pb) / (unit * hm);
+                if rb > BOUNDARY_SPLIT_ABOVE {
+                    Some(Ok((rb, h, 1)))
+                } else if rb < BOUNDARY_COLLAPSE_BELOW {
+                    Some(Ok((rb, h, -1)))
+                } else {
+                    None
+                }
+            } else {
+                None
+            }
+        })
+        .collect::<Result<_, Error>>()?;
+    let bad = snap
+        .tris
+        .par_iter()
+        .zip(snap.tri_faces.par_iter())
+        .with_min_len(CHUNK)
+        .filter_map(|(t, f)| {
+            let q = crate::quality::triangle_q([p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]]);
+            (q < Q_REPAIR).then_some((q, *f))
+        })
+        .collect();
+    let long = marks.iter().filter(|m| m.2 > 0).map(|m| (m.0, m.1)).collect();
+    let short = marks.iter().filter(|m| m.2 < 0).map(|m| (m.0, m.1)).collect();
+    Ok(Candidates { long, short, bad })
+}
+
 /// Splits edges longer than SPLIT_ABOVE targets, collapses edges shorter than COLLAPSE_BELOW
 /// targets and the shortest edge of triangles below Q_REPAIR, then restores Delaunay.
 /// Returns whether the topology changed.
-fn density_control(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, unit: f64) -> Result<bool, Error> {
-    let h0 = ctx.opts.h0;
+fn density_control(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, cands: Candidates) -> Result<bool, Error> {
     let mut changed = false;
-    // Splits, longest first.
-    let mut long: Vec<(f64, HalfEdgeId)> = Vec::new();
-    let mut short: Vec<(f64, HalfEdgeId)> = Vec::new();
-    for h in m.edge_ids() {
-        let (a, b) = (m.pos(m.origin(h)), m.pos(m.dest(h)));
-        let hm = ctx.h((a + b) * 0.5)?;
-        let r = a.distance(b) / (h0 * hm);
-        if r > SPLIT_ABOVE {
-            long.push((r, h));
-        } else if r < COLLAPSE_BELOW {
-            short.push((r, h));
-        } else if m.is_boundary_edge(h) {
-            // Boundary spacing follows the mesh's own current scale (the interior sets it):
-            // the carved start has too many boundary nodes, and nothing else removes them.
-            let rb = a.distance(b) / (unit * hm);
-            if rb > BOUNDARY_SPLIT_ABOVE {
-                long.push((rb, h));
-            } else if rb < BOUNDARY_COLLAPSE_BELOW {
-                short.push((rb, h));
-            }
-        }
-    }
+    let Candidates { mut long, mut short, mut bad } = cands;
     long.sort_by(|x, y| y.0.total_cmp(&x.0));
     for (_, h) in long {
         if !m.contains_half_edge(h) {
@@ -883,7 +990,6 @@ fn density_control(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, unit: f64) -> Result<b
         }
     }
     // Collapses: short edges, and the shortest edge of bad triangles.
-    let mut bad: Vec<(f64, crate::topology::FaceId)> = m.face_ids().map(|f| (m.face_quality(f), f)).filter(|(q, _)| *q < Q_REPAIR).collect();
     bad.sort_by(|x, y| x.0.total_cmp(&y.0));
     for (_, f) in bad {
         if !m.contains_face(f) || m.face_quality(f) >= Q_REPAIR {
