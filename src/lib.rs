@@ -26,3 +26,8 @@ pub mod topology;
 pub mod testing;
 
 pub use error::Error;
+
+/// The README's Rust examples, compiled and run as doc tests.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
