@@ -500,7 +500,8 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     let h0 = opts.h0;
     let mut snap = Snapshot::build(m);
     let mut p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
-    let mut moved_since_check: Vec<f64> = vec![0.0; p.len()];
+    // Positions at the last connectivity check (the seed's pold).
+    let mut pold: Vec<DVec2> = p.clone();
     let uniform = opts.size.is_none();
     let mut hv: Vec<f64> = vec![1.0; p.len()];
     let mut last_q = 0.0;
@@ -634,16 +635,16 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
         // Step control: no triangle may invert; vertices of offending triangles step back.
         guard_inversions(&snap, &p, &mut newp);
-        for i in 0..p.len() {
-            moved_since_check[i] += newp[i].distance(p[i]);
-        }
         p = newp;
-        // Connectivity: when some node has moved far since the last check (the seed's ttol),
-        // every edge gets the exact in-circle test and bad ones flip; nothing is rebuilt.
+        // Connectivity: when some node is far from where it was at the last check (the seed's
+        // ttol), every edge gets the exact in-circle test (in parallel) and bad ones flip.
         let mut topo_changed = false;
-        let far = (0..p.len()).any(|i| moved_since_check[i] > TTOL * h0 * hv[i]);
+        let far = (0..p.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .any(|i| p[i].distance(pold[i]) > TTOL * h0 * hv[i]);
         if far {
-            moved_since_check.iter_mut().for_each(|x| *x = 0.0);
+            pold.copy_from_slice(&p);
             let bad = snap.non_delaunay(&p);
             if !bad.is_empty() {
                 write_back(m, &snap, &p);
@@ -669,7 +670,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         if topo_changed {
             snap = Snapshot::build(m);
             p = snap.ids.iter().map(|&v| m.pos(v)).collect();
-            moved_since_check = vec![0.0; p.len()];
+            pold = p.clone();
             hv = vec![1.0; p.len()];
             if !uniform {
                 hv = p.par_iter().map(|&x| ctx.h(x)).collect::<Result<Vec<f64>, Error>>()?;
