@@ -2,6 +2,7 @@
 
 
 mod gallery;
+mod image;
 mod mesh;
 mod stats;
 
@@ -62,6 +63,8 @@ pub enum Command {
     Stats(stats::StatsArgs),
     /// Mesh every 2-D example of the seed into a directory, with a quality table.
     Gallery(gallery::GalleryArgs),
+    /// Mesh the bright region of a PNG picture (pixel coordinates, y down).
+    Image(image::ImageArgs),
 }
 
 /// Runs the command line and returns the exit code.
@@ -91,5 +94,6 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Mesh(a) => mesh::run(a),
         Command::Stats(a) => stats::run(a),
         Command::Gallery(a) => gallery::run(a),
+        Command::Image(a) => image::run(a),
     }
 }

@@ -506,6 +506,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     let mut hv: Vec<f64> = vec![1.0; p.len()];
     let mut last_q = 0.0;
     let mut stall = 0;
+    let mut rebuilds = 0usize;
     let mut converged = false;
     let mut iter = 0;
     let mut unit = h0;
@@ -668,6 +669,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             unit = (sl / sh).sqrt();
         }
         if topo_changed {
+            rebuilds += 1;
             snap = Snapshot::build(m);
             p = snap.ids.iter().map(|&v| m.pos(v)).collect();
             pold = p.clone();
@@ -706,6 +708,9 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             }
             last_q = last_q.max(q);
         }
+    }
+    if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+        eprintln!("{rebuilds} snapshot rebuilds in {iter} iterations");
     }
     // Every boundary node ends on d = 0.
     project_boundary(ctx, &snap, &mut p, m)?;

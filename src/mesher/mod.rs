@@ -1,6 +1,7 @@
 //! The meshing pipelines: implicit geometry and size function in, mesh and report out.
 
 mod classic2d;
+pub mod image;
 mod input;
 mod local2d;
 mod options;
