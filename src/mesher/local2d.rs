@@ -34,6 +34,8 @@ const TTOL: f64 = 0.1;
 const DENSITY_EVERY: usize = 10;
 /// Density control stops after this many iterations, so that the forces settle.
 const DENSITY_UNTIL: usize = usize::MAX;
+/// A boundary node leaves the boundary only once the ear it leaves behind has this quality.
+const EAR_Q: f64 = 0.2;
 /// Chunk size of the deterministic parallel loops.
 const CHUNK: usize = 4096;
 
@@ -83,6 +85,12 @@ impl Ctx<'_> {
 
 /// Runs the local strategy.
 pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, Error> {
+    run_from(domain, opts, None)
+}
+
+/// Runs the local strategy from `start` (a previous mesh: moving meshes and remeshing, seed
+/// chapter 5) or, when `None`, from the refined enclosing triangle.
+pub(crate) fn run_from(domain: &dyn Implicit2, opts: &Options2, start: Option<&TriMesh<DVec2>>) -> Result<MeshOutput2, Error> {
     let t0 = Instant::now();
     let survey = survey(domain, opts)?;
     let projection = match opts.projection {
@@ -91,7 +99,20 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
         p => p,
     };
     let mut ctx = Ctx { domain, opts, projection, geps: 1e-3 * opts.h0, h_floor: survey.h_floor, report: Report::default(), left: 0, joined: 0 };
-    let mut mesh = initial_mesh(&mut ctx, survey.estimated_triangles)?;
+    let mut mesh = match start {
+        None => initial_mesh(&mut ctx, survey.estimated_triangles)?,
+        Some(prev) => {
+            if let Err(e) = prev.validate(Level::Geometry) {
+                return Err(Error::InvalidMesh(format!("the mesh to start from is invalid ({e}): inverted or broken elements")));
+            }
+            let mut fixed_prev = prev.clone();
+            for v in prev.vertex_ids() {
+                let tag = if opts.fixed.contains(&prev.pos(v)) { VertexTag::Fixed } else { VertexTag::Interior };
+                fixed_prev.set_tag(v, tag);
+            }
+            carve(&ctx, &fixed_prev)?
+        }
+    };
     equilibrium(&mut ctx, &mut mesh)?;
     if let Err(e) = mesh.validate(Level::Geometry) {
         return Err(Error::Internal(format!("the finished mesh is invalid: {e}")));
@@ -568,7 +589,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             })
             .collect();
         // Interior movement before projection: the seed's stop criterion.
-        let max_move = (0..p.len())
+        let interior_move = (0..p.len())
             .into_par_iter()
             .with_min_len(CHUNK)
             .filter(|&i| snap.kind[i] == INTERIOR)
@@ -636,6 +657,15 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
         // Step control: no triangle may invert; vertices of offending triangles step back.
         guard_inversions(&snap, &p, &mut newp);
+        // Boundary nodes count too once the step is taken: a node still travelling to d = 0
+        // (a start cut from a previous mesh) is not settled.
+        let boundary_move = (0..p.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .filter(|&i| snap.kind[i] == BOUNDARY)
+            .map(|i| newp[i].distance(p[i]) / (h0 * hv[i]))
+            .reduce(|| 0.0, f64::max);
+        let max_move = interior_move.max(boundary_move);
         p = newp;
         // Connectivity: when some node is far from where it was at the last check (the seed's
         // ttol), every edge gets the exact in-circle test (in parallel) and bad ones flip.
@@ -753,6 +783,10 @@ fn change_membership(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, snap: &Snapshot, lea
         // centroid): over a concave part of the boundary it would cover a hole.
         let (pa, pc) = (m.pos(a), m.pos(c));
         if ctx.approx_dist((pa + inner + pc) / 3.0)? > -ctx.geps || ctx.approx_dist((pa + pc) * 0.5)? > -ctx.geps {
+            continue;
+        }
+        // Not while the ear would be a sliver: the node has barely crossed the chord.
+        if crate::quality::triangle_q([pa, inner, pc]) < EAR_Q {
             continue;
         }
         let old = m.pos(b);

@@ -37,3 +37,14 @@ pub fn mesh_2d(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, c
         Strategy::GlobalDelaunay => classic2d::run(domain, opts),
     }
 }
+
+/// Meshes {d < 0} starting from an existing mesh instead of from scratch: one step of a moving
+/// mesh or a remeshing for a new size field (seed sections 5.1 and 5.2). The previous mesh is
+/// cut to the new domain (triangles with a vertex outside are dropped), then the usual force
+/// iterations with density control move, add and remove nodes. `opts.max_iter` bounds the
+/// work per step (a few dozen iterations are typical when the geometry moved a little).
+///
+/// An invalid start (an inverted or broken element) is an `Error::InvalidMesh`.
+pub fn remesh_2d(prev: &TriMesh<DVec2>, domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, crate::Error> {
+    local2d::run_from(domain, opts, Some(prev))
+}
