@@ -1,6 +1,9 @@
 //! The 2-D mesher on the local engine (seed chapters 2 and 3): initial mesh by refining one
-//! enclosing triangle, then force equilibrium in the truss with boundary projection, local
-//! Delaunay flips around moved nodes, and density control by splits and collapses.
+//! enclosing triangle, then force equilibrium in the truss with boundary projection, Delaunay
+//! flips where the exact in-circle test fails, boundary membership by ear filling and
+//! boundary-triangle removal, and density control by splits and collapses.
+//!
+//! Set `TRUSSMESH_TRACE=1` to print the state every ten iterations (a development aid).
 
 use super::input::{eval_d, eval_h_floor, survey};
 use super::{MeshOutput2, Options2, QualityStats, Report};
@@ -32,8 +35,6 @@ const Q_REPAIR: f64 = 0.02;
 const TTOL: f64 = 0.1;
 /// Density control runs every this many iterations.
 const DENSITY_EVERY: usize = 10;
-/// Density control stops after this many iterations, so that the forces settle.
-const DENSITY_UNTIL: usize = usize::MAX;
 /// A boundary node leaves the boundary only once the ear it leaves behind has this quality.
 const EAR_Q: f64 = 0.2;
 /// Chunk size of the deterministic parallel loops.
@@ -125,9 +126,8 @@ pub(crate) fn run_from(domain: &dyn Implicit2, opts: &Options2, start: Option<&T
 
 // ============================ initial mesh ============================
 
-/// Seed 3.3.3: one large triangle around the box, refined by splitting long edges (longest
-/// relative to h first) with Delaunay flips, skipping edges whose triangles are certainly
-/// outside; then triangles with an outside centroid are dropped.
+/// Seed 3.3.3: one large triangle around the box, refined by rounds of edge splits with
+/// Delaunay flips, skipping edges whose triangles are certainly outside; then carved.
 fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
     let opts = ctx.opts;
     let [lo, hi] = opts.bbox;
@@ -690,7 +690,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             topo_changed |= change_membership(ctx, m, &snap, &leaving, &joining)?;
         }
         // Density control and repair of bad triangles.
-        if iter % DENSITY_EVERY == 0 && iter < DENSITY_UNTIL {
+        if iter % DENSITY_EVERY == 0 {
             let cands = density_candidates(ctx, &snap, &p, (sl / sh).sqrt())?;
             if !cands.is_empty() {
                 write_back(m, &snap, &p);
