@@ -2,7 +2,9 @@
 //! boundary ear filling. Each is a `check_*` that only reads and returns a plan or a
 //! [`Refusal`], and an `apply_*` that only writes and cannot fail.
 
-use super::trimesh::{Face, FaceId, HalfEdge, HalfEdgeId, MeshPoint, TriMesh, Vertex, VertexId, VertexTag};
+use super::trimesh::{
+    Face, FaceId, HalfEdge, HalfEdgeId, MeshPoint, TriMesh, Vertex, VertexId, VertexTag,
+};
 use super::Refusal;
 use crate::predicates::Sign;
 use smallvec::SmallVec;
@@ -30,18 +32,18 @@ fn positive(s: Sign) -> Result<(), Refusal> {
 /// ```
 #[derive(Clone, Copy, Debug)]
 pub struct FlipPlan {
-    h: HalfEdgeId,
-    t: HalfEdgeId,
-    h_bc: HalfEdgeId,
-    h_ca: HalfEdgeId,
-    t_ad: HalfEdgeId,
-    t_db: HalfEdgeId,
-    a: VertexId,
-    b: VertexId,
-    c: VertexId,
-    d: VertexId,
-    f1: FaceId,
-    f2: FaceId,
+    pub(crate) h: HalfEdgeId,
+    pub(crate) t: HalfEdgeId,
+    pub(crate) h_bc: HalfEdgeId,
+    pub(crate) h_ca: HalfEdgeId,
+    pub(crate) t_ad: HalfEdgeId,
+    pub(crate) t_db: HalfEdgeId,
+    pub(crate) a: VertexId,
+    pub(crate) b: VertexId,
+    pub(crate) c: VertexId,
+    pub(crate) d: VertexId,
+    pub(crate) f1: FaceId,
+    pub(crate) f2: FaceId,
 }
 
 /// What a checked edge split will do.
@@ -68,8 +70,8 @@ pub struct CollapsePlan<P> {
 /// What a checked insertion of a vertex inside a face will do.
 #[derive(Clone, Copy, Debug)]
 pub struct InsertPlan<P> {
-    f: FaceId,
-    p: P,
+    pub(crate) f: FaceId,
+    pub(crate) p: P,
 }
 
 impl<P: MeshPoint> TriMesh<P> {
@@ -78,50 +80,94 @@ impl<P: MeshPoint> TriMesh<P> {
     /// Checks the flip of the edge of `h`: both sides must be faces of the same label, the new
     /// edge must not exist yet, and both new triangles must be positively oriented (exact).
     pub fn check_flip(&self, h: HalfEdgeId) -> Result<FlipPlan, Refusal> {
-        self.live_he(h)?;
-        let t = self.twin(h);
-        let f1 = self.face_of(h).ok_or(Refusal::BoundaryEdge)?;
-        let f2 = self.face_of(t).ok_or(Refusal::BoundaryEdge)?;
+        let eh = *self.half_edges.get(h).ok_or(Refusal::StaleKey)?;
+        let t = eh.twin;
+        let et = self.half_edges[t];
+        let f1 = eh.face.ok_or(Refusal::BoundaryEdge)?;
+        let f2 = et.face.ok_or(Refusal::BoundaryEdge)?;
         // An edge between subdomains is an internal boundary.
         if self.faces[f1].label != self.faces[f2].label {
             return Err(Refusal::Constrained);
         }
-        let h_bc = self.next(h);
-        let h_ca = self.next(h_bc);
-        let t_ad = self.next(t);
-        let t_db = self.next(t_ad);
-        let (a, b, c, d) = (self.origin(h), self.origin(t), self.origin(h_ca), self.origin(t_db));
-        // The new edge c-d must not already exist elsewhere.
-        if c == d || self.find_half_edge(c, d).is_some() {
+        let plan = self.flip_quad(h, eh, t, et, f1, f2);
+        let (a, b, c, d) = (plan.a, plan.b, plan.c, plan.d);
+        // The new edge c-d must not already exist elsewhere (see `NEEDS_DUPLICATE_EDGE_CHECK`).
+        if c == d || (P::NEEDS_DUPLICATE_EDGE_CHECK && self.find_half_edge(c, d).is_some()) {
             return Err(Refusal::DuplicateEdge);
         }
         let (pa, pb, pc, pd) = (self.pos(a), self.pos(b), self.pos(c), self.pos(d));
         // Both new triangles positive: the quad a-d-b-c is strictly convex at a and b.
-        positive(P::orientation(pc, pa, pd))?;
-        positive(P::orientation(pd, pb, pc))?;
-        Ok(FlipPlan { h, t, h_bc, h_ca, t_ad, t_db, a, b, c, d, f1, f2 })
+        let convex = positive(P::orientation(pc, pa, pd))
+            .and_then(|()| positive(P::orientation(pd, pb, pc)));
+        if convex.is_err() && !P::NEEDS_DUPLICATE_EDGE_CHECK && self.find_half_edge(c, d).is_some()
+        {
+            // The skipped search still decides the reason of a refusal, as it always did.
+            return Err(Refusal::DuplicateEdge);
+        }
+        convex.map(|()| plan)
+    }
+
+    /// The flip plan of the interior edge of `h` (records `eh` of `h` and `et` of its twin `t`,
+    /// faces `f1` and `f2`): topology only, nothing checked.
+    #[inline]
+    fn flip_quad(
+        &self,
+        h: HalfEdgeId,
+        eh: HalfEdge,
+        t: HalfEdgeId,
+        et: HalfEdge,
+        f1: FaceId,
+        f2: FaceId,
+    ) -> FlipPlan {
+        let h_bc = eh.next;
+        let h_ca = self.half_edges[h_bc].next;
+        let t_ad = et.next;
+        let t_db = self.half_edges[t_ad].next;
+        let c = self.half_edges[h_ca].origin;
+        let d = self.half_edges[t_db].origin;
+        FlipPlan {
+            h,
+            t,
+            h_bc,
+            h_ca,
+            t_ad,
+            t_db,
+            a: eh.origin,
+            b: et.origin,
+            c,
+            d,
+            f1,
+            f2,
+        }
     }
 
     /// Applies a checked flip. Afterwards `h` runs d -> c and `twin(h)` c -> d.
+    #[inline]
     pub fn apply_flip(&mut self, p: FlipPlan) {
         let he = &mut self.half_edges;
-        he[p.h].origin = p.d;
-        he[p.h].next = p.h_ca;
+        let x = &mut he[p.h];
+        x.origin = p.d;
+        x.next = p.h_ca;
         he[p.h_ca].next = p.t_ad;
-        he[p.t_ad].next = p.h;
-        he[p.t_ad].face = Some(p.f1);
-        he[p.t].origin = p.c;
-        he[p.t].next = p.t_db;
+        let x = &mut he[p.t_ad];
+        x.next = p.h;
+        x.face = Some(p.f1);
+        let x = &mut he[p.t];
+        x.origin = p.c;
+        x.next = p.t_db;
         he[p.t_db].next = p.h_bc;
-        he[p.h_bc].next = p.t;
-        he[p.h_bc].face = Some(p.f2);
+        let x = &mut he[p.h_bc];
+        x.next = p.t;
+        x.face = Some(p.f2);
         self.faces[p.f1].half_edge = p.h;
         self.faces[p.f2].half_edge = p.t;
-        if self.vertices[p.a].out == p.h {
-            self.vertices[p.a].out = p.t_ad;
+        let va = &mut self.vertices[p.a];
+        if va.out == p.h {
+            va.out = p.t_ad;
         }
-        if self.vertices[p.b].out == p.t {
-            self.vertices[p.b].out = p.h_bc;
+        let vb = &mut self.vertices[p.b];
+        if vb.out == p.t {
+            vb.out = p.h_bc;
         }
     }
 
@@ -132,28 +178,18 @@ impl<P: MeshPoint> TriMesh<P> {
         Ok(())
     }
 
-    /// Flip with the preconditions only debug-checked: for loops that just evaluated them.
-    pub(crate) fn flip_unchecked(&mut self, h: HalfEdgeId) {
-        let t = self.twin(h);
-        let h_bc = self.next(h);
-        let h_ca = self.next(h_bc);
-        let t_ad = self.next(t);
-        let t_db = self.next(t_ad);
-        let plan = FlipPlan {
-            h,
-            t,
-            h_bc,
-            h_ca,
-            t_ad,
-            t_db,
-            a: self.origin(h),
-            b: self.origin(t),
-            c: self.origin(h_ca),
-            d: self.origin(t_db),
-            f1: self.face_of(h).expect("flip_unchecked on a boundary edge"),
-            f2: self.face_of(t).expect("flip_unchecked on a boundary edge"),
-        };
-        self.apply_flip(plan);
+    /// The flip plan of `h` when both sides are faces of the same label, else `None`: for
+    /// Lawson loops, which then decide by in-circle and orientation themselves.
+    #[inline]
+    pub(crate) fn interior_quad(&self, h: HalfEdgeId) -> Option<FlipPlan> {
+        let eh = self.half_edges[h];
+        let t = eh.twin;
+        let et = self.half_edges[t];
+        let (f1, f2) = (eh.face?, et.face?);
+        if self.faces[f1].label != self.faces[f2].label {
+            return None;
+        }
+        Some(self.flip_quad(h, eh, t, et, f1, f2))
     }
 
     // ===================== split =====================
@@ -195,14 +231,19 @@ impl<P: MeshPoint> TriMesh<P> {
             VertexTag::Boundary
         } else if self.is_constrained_edge(h) {
             let curve = match (self.tag(a), self.tag(b)) {
-                (VertexTag::InternalBoundary { curve }, _) | (_, VertexTag::InternalBoundary { curve }) => curve,
+                (VertexTag::InternalBoundary { curve }, _)
+                | (_, VertexTag::InternalBoundary { curve }) => curve,
                 _ => 0,
             };
             VertexTag::InternalBoundary { curve }
         } else {
             VertexTag::Interior
         };
-        let t_prev = if self.face_of(t).is_none() { Some(self.prev(t)) } else { None };
+        let t_prev = if self.face_of(t).is_none() {
+            Some(self.prev(t))
+        } else {
+            None
+        };
         Ok(SplitPlan { h, p, tag, t_prev })
     }
 
@@ -215,9 +256,23 @@ impl<P: MeshPoint> TriMesh<P> {
         let f1 = self.face_of(h);
         let f2 = self.face_of(t);
         let hn = self.next(h);
-        let v = self.vertices.insert(Vertex { pos: plan.p, out: h, tag: plan.tag });
-        let h2 = self.half_edges.insert(HalfEdge { origin: v, twin: t, next: hn, face: f1 });
-        let t2 = self.half_edges.insert(HalfEdge { origin: b, twin: h2, next: t, face: f2 });
+        let v = self.vertices.insert(Vertex {
+            pos: plan.p,
+            out: h,
+            tag: plan.tag,
+        });
+        let h2 = self.half_edges.insert(HalfEdge {
+            origin: v,
+            twin: t,
+            next: hn,
+            face: f1,
+        });
+        let t2 = self.half_edges.insert(HalfEdge {
+            origin: b,
+            twin: h2,
+            next: t,
+            face: f2,
+        });
         self.half_edges[h2].twin = t2;
         self.half_edges[t].origin = v;
         let _ = a;
@@ -231,9 +286,22 @@ impl<P: MeshPoint> TriMesh<P> {
                 let h_ca = self.next(h_bc);
                 let c = self.origin(h_ca);
                 let label = self.faces[f1].label;
-                let f3 = self.faces.insert(Face { half_edge: h2, label });
-                let m = self.half_edges.insert(HalfEdge { origin: v, twin: h, next: h_ca, face: Some(f1) });
-                let mt = self.half_edges.insert(HalfEdge { origin: c, twin: m, next: h2, face: Some(f3) });
+                let f3 = self.faces.insert(Face {
+                    half_edge: h2,
+                    label,
+                });
+                let m = self.half_edges.insert(HalfEdge {
+                    origin: v,
+                    twin: h,
+                    next: h_ca,
+                    face: Some(f1),
+                });
+                let mt = self.half_edges.insert(HalfEdge {
+                    origin: c,
+                    twin: m,
+                    next: h2,
+                    face: Some(f3),
+                });
                 self.half_edges[m].twin = mt;
                 self.half_edges[h].next = m;
                 self.half_edges[h2].face = Some(f3);
@@ -254,9 +322,22 @@ impl<P: MeshPoint> TriMesh<P> {
                 let t_db = self.next(t_ad);
                 let d = self.origin(t_db);
                 let label = self.faces[f2].label;
-                let f4 = self.faces.insert(Face { half_edge: t2, label });
-                let n = self.half_edges.insert(HalfEdge { origin: v, twin: t, next: t_db, face: Some(f4) });
-                let nt = self.half_edges.insert(HalfEdge { origin: d, twin: n, next: t, face: Some(f2) });
+                let f4 = self.faces.insert(Face {
+                    half_edge: t2,
+                    label,
+                });
+                let n = self.half_edges.insert(HalfEdge {
+                    origin: v,
+                    twin: t,
+                    next: t_db,
+                    face: Some(f4),
+                });
+                let nt = self.half_edges.insert(HalfEdge {
+                    origin: d,
+                    twin: n,
+                    next: t,
+                    face: Some(f2),
+                });
                 self.half_edges[n].twin = nt;
                 self.half_edges[t_ad].next = nt;
                 self.half_edges[t2].next = n;
@@ -266,7 +347,9 @@ impl<P: MeshPoint> TriMesh<P> {
                 self.faces[f2].half_edge = t;
             }
             None => {
-                let tp = plan.t_prev.expect("split plan without the boundary predecessor");
+                let tp = plan
+                    .t_prev
+                    .expect("split plan without the boundary predecessor");
                 self.half_edges[tp].next = t2;
                 self.half_edges[t2].next = t;
             }
@@ -384,9 +467,23 @@ impl<P: MeshPoint> TriMesh<P> {
                 positive(P::orientation(pos, p1, p2))?;
             }
         }
-        let h_prev = if f1.is_none() { Some(self.prev(h)) } else { None };
-        let t_prev = if f2.is_none() { Some(self.prev(t)) } else { None };
-        Ok(CollapsePlan { h, pos, a_out, h_prev, t_prev })
+        let h_prev = if f1.is_none() {
+            Some(self.prev(h))
+        } else {
+            None
+        };
+        let t_prev = if f2.is_none() {
+            Some(self.prev(t))
+        } else {
+            None
+        };
+        Ok(CollapsePlan {
+            h,
+            pos,
+            a_out,
+            h_prev,
+            t_prev,
+        })
     }
 
     /// Applies a checked collapse; returns the surviving vertex b.
@@ -421,7 +518,9 @@ impl<P: MeshPoint> TriMesh<P> {
                 b_out_candidate = Some(e2);
             }
             None => {
-                let hp = plan.h_prev.expect("collapse plan without boundary predecessor");
+                let hp = plan
+                    .h_prev
+                    .expect("collapse plan without boundary predecessor");
                 let hn = self.next(h);
                 self.half_edges[hp].next = hn;
                 b_out_candidate.get_or_insert(hn);
@@ -445,7 +544,9 @@ impl<P: MeshPoint> TriMesh<P> {
                 b_out_candidate.get_or_insert(e4);
             }
             None => {
-                let tp = plan.t_prev.expect("collapse plan without boundary predecessor");
+                let tp = plan
+                    .t_prev
+                    .expect("collapse plan without boundary predecessor");
                 let tn = self.next(t);
                 self.half_edges[tp].next = tn;
                 b_out_candidate = Some(tn);
@@ -510,50 +611,92 @@ impl<P: MeshPoint> TriMesh<P> {
     ///    a-------b
     /// ```
     pub fn apply_insert_in_face(&mut self, plan: InsertPlan<P>) -> VertexId {
+        self.insert_in_face_raw(plan).0
+    }
+
+    /// [`TriMesh::apply_insert_in_face`], also returning the three old edges of the face
+    /// (a -> b, b -> c, c -> a), now the link of the new vertex.
+    pub(crate) fn insert_in_face_raw(
+        &mut self,
+        plan: InsertPlan<P>,
+    ) -> (VertexId, [HalfEdgeId; 3]) {
         let f = plan.f;
-        let [hab, hbc, hca] = self.face_half_edges(f);
-        let [a, b, c] = [self.origin(hab), self.origin(hbc), self.origin(hca)];
-        let label = self.faces[f].label;
-        let v = self.vertices.insert(Vertex { pos: plan.p, out: hab, tag: VertexTag::Interior });
-        let f2 = self.faces.insert(Face { half_edge: hbc, label });
-        let f3 = self.faces.insert(Face { half_edge: hca, label });
-        let dummy = HalfEdge { origin: v, twin: hab, next: hab, face: Some(f) };
-        let va = self.half_edges.insert(HalfEdge { origin: v, ..dummy });
-        let av = self.half_edges.insert(HalfEdge { origin: a, ..dummy });
-        let vb = self.half_edges.insert(HalfEdge { origin: v, ..dummy });
-        let bv = self.half_edges.insert(HalfEdge { origin: b, ..dummy });
-        let vc = self.half_edges.insert(HalfEdge { origin: v, ..dummy });
-        let cv = self.half_edges.insert(HalfEdge { origin: c, ..dummy });
+        let Face {
+            half_edge: hab,
+            label,
+        } = self.faces[f];
+        let hbc = self.half_edges[hab].next;
+        let e_bc = self.half_edges[hbc];
+        let hca = e_bc.next;
+        let a = self.half_edges[hab].origin;
+        let b = e_bc.origin;
+        let c = self.half_edges[hca].origin;
+        let v = self.vertices.insert(Vertex {
+            pos: plan.p,
+            out: hab,
+            tag: VertexTag::Interior,
+        });
+        let f2 = self.faces.insert(Face {
+            half_edge: hbc,
+            label,
+        });
+        let f3 = self.faces.insert(Face {
+            half_edge: hca,
+            label,
+        });
+        // Inserted in the order va, av, vb, bv, vc, cv; the keys not known yet are patched after.
         let he = &mut self.half_edges;
+        let va = he.insert(HalfEdge {
+            origin: v,
+            twin: hab,
+            next: hab,
+            face: Some(f),
+        });
+        let av = he.insert(HalfEdge {
+            origin: a,
+            twin: va,
+            next: hab,
+            face: Some(f3),
+        });
+        let vb = he.insert(HalfEdge {
+            origin: v,
+            twin: hab,
+            next: hbc,
+            face: Some(f2),
+        });
+        let bv = he.insert(HalfEdge {
+            origin: b,
+            twin: vb,
+            next: va,
+            face: Some(f),
+        });
+        let vc = he.insert(HalfEdge {
+            origin: v,
+            twin: hab,
+            next: hca,
+            face: Some(f3),
+        });
+        let cv = he.insert(HalfEdge {
+            origin: c,
+            twin: vc,
+            next: vb,
+            face: Some(f2),
+        });
         he[va].twin = av;
-        he[av].twin = va;
+        let x = &mut he[av];
+        x.next = vc;
         he[vb].twin = bv;
-        he[bv].twin = vb;
         he[vc].twin = cv;
-        he[cv].twin = vc;
-        // (a, b, v)
+        // (a, b, v), (b, c, v), (c, a, v)
         he[hab].next = bv;
-        he[bv].next = va;
-        he[va].next = hab;
-        he[bv].face = Some(f);
-        he[va].face = Some(f);
-        // (b, c, v)
-        he[hbc].next = cv;
-        he[cv].next = vb;
-        he[vb].next = hbc;
-        he[hbc].face = Some(f2);
-        he[cv].face = Some(f2);
-        he[vb].face = Some(f2);
-        // (c, a, v)
-        he[hca].next = av;
-        he[av].next = vc;
-        he[vc].next = hca;
-        he[hca].face = Some(f3);
-        he[av].face = Some(f3);
-        he[vc].face = Some(f3);
-        self.faces[f].half_edge = hab;
+        let x = &mut he[hbc];
+        x.next = cv;
+        x.face = Some(f2);
+        let x = &mut he[hca];
+        x.next = av;
+        x.face = Some(f3);
         self.vertices[v].out = va;
-        v
+        (v, [hab, hbc, hca])
     }
 
     /// Inserts a vertex at `p` inside face `f` if allowed.
@@ -578,7 +721,11 @@ impl<P: MeshPoint> TriMesh<P> {
         loop {
             if self.half_edges[x].face.is_some() {
                 let y = self.next(x);
-                positive(P::orientation(p, self.pos(self.origin(y)), self.pos(self.dest(y))))?;
+                positive(P::orientation(
+                    p,
+                    self.pos(self.origin(y)),
+                    self.pos(self.dest(y)),
+                ))?;
             }
             x = self.next(self.twin(x));
             if x == start {
@@ -612,9 +759,22 @@ impl<P: MeshPoint> TriMesh<P> {
         positive(P::orientation(self.pos(a), self.pos(b), self.pos(c)))?;
         let hp = self.prev(h);
         let gn = self.next(g);
-        let f = self.faces.insert(Face { half_edge: h, label });
-        let e = self.half_edges.insert(HalfEdge { origin: c, twin: h, next: h, face: Some(f) });
-        let et = self.half_edges.insert(HalfEdge { origin: a, twin: e, next: gn, face: None });
+        let f = self.faces.insert(Face {
+            half_edge: h,
+            label,
+        });
+        let e = self.half_edges.insert(HalfEdge {
+            origin: c,
+            twin: h,
+            next: h,
+            face: Some(f),
+        });
+        let et = self.half_edges.insert(HalfEdge {
+            origin: a,
+            twin: e,
+            next: gn,
+            face: None,
+        });
         self.half_edges[e].twin = et;
         self.half_edges[h].face = Some(f);
         self.half_edges[h].next = g;

@@ -59,9 +59,16 @@ pub trait MeshPoint: Copy + PartialEq + std::fmt::Debug + Send + Sync + 'static 
     /// space have no global orientation: `Zero` when the triangle is exactly degenerate (its
     /// cross product vanishes), else `Positive`; surface meshers check folds with normals.
     fn orientation(a: Self, b: Self, c: Self) -> Sign;
+    /// Whether a flip must search the one-ring for an existing copy of the new edge. In a
+    /// valid planar triangulation the new diagonal of a strictly convex quad lies inside the
+    /// two old triangles, so it cannot exist yet and planar points skip the search (it still
+    /// runs when a flip is refused, to report [`super::Refusal::DuplicateEdge`] first, as
+    /// before). Points in space have no such guarantee and keep the search.
+    const NEEDS_DUPLICATE_EDGE_CHECK: bool = true;
 }
 
 impl MeshPoint for DVec2 {
+    const NEEDS_DUPLICATE_EDGE_CHECK: bool = false;
     #[inline]
     fn to_3d(self) -> DVec3 {
         self.extend(0.0)
@@ -103,9 +110,21 @@ impl MeshPoint for DVec3 {
     }
     fn orientation(a: Self, b: Self, c: Self) -> Sign {
         // Exactly degenerate when all three coordinate-plane projections are collinear.
-        let xy = orient2d(DVec2::new(a.x, a.y), DVec2::new(b.x, b.y), DVec2::new(c.x, c.y));
-        let yz = orient2d(DVec2::new(a.y, a.z), DVec2::new(b.y, b.z), DVec2::new(c.y, c.z));
-        let zx = orient2d(DVec2::new(a.z, a.x), DVec2::new(b.z, b.x), DVec2::new(c.z, c.x));
+        let xy = orient2d(
+            DVec2::new(a.x, a.y),
+            DVec2::new(b.x, b.y),
+            DVec2::new(c.x, c.y),
+        );
+        let yz = orient2d(
+            DVec2::new(a.y, a.z),
+            DVec2::new(b.y, b.z),
+            DVec2::new(c.y, c.z),
+        );
+        let zx = orient2d(
+            DVec2::new(a.z, a.x),
+            DVec2::new(b.z, b.x),
+            DVec2::new(c.z, c.x),
+        );
         if xy == Sign::Zero && yz == Sign::Zero && zx == Sign::Zero {
             Sign::Zero
         } else {
@@ -161,9 +180,21 @@ impl<P: MeshPoint> PartialEq for TriMesh<P> {
         self.vertices.len() == other.vertices.len()
             && self.half_edges.len() == other.half_edges.len()
             && self.faces.len() == other.faces.len()
-            && self.vertices.iter().zip(other.vertices.iter()).all(|(a, b)| a == b)
-            && self.half_edges.iter().zip(other.half_edges.iter()).all(|(a, b)| a == b)
-            && self.faces.iter().zip(other.faces.iter()).all(|(a, b)| a == b)
+            && self
+                .vertices
+                .iter()
+                .zip(other.vertices.iter())
+                .all(|(a, b)| a == b)
+            && self
+                .half_edges
+                .iter()
+                .zip(other.half_edges.iter())
+                .all(|(a, b)| a == b)
+            && self
+                .faces
+                .iter()
+                .zip(other.faces.iter())
+                .all(|(a, b)| a == b)
     }
 }
 
@@ -176,7 +207,11 @@ impl<P: MeshPoint> Default for TriMesh<P> {
 impl<P: MeshPoint> TriMesh<P> {
     /// An empty mesh.
     pub fn new() -> Self {
-        TriMesh { vertices: SlotMap::with_key(), half_edges: SlotMap::with_key(), faces: SlotMap::with_key() }
+        TriMesh {
+            vertices: SlotMap::with_key(),
+            half_edges: SlotMap::with_key(),
+            faces: SlotMap::with_key(),
+        }
     }
 
     /// An empty mesh with room for about `n` vertices.
@@ -273,7 +308,10 @@ impl<P: MeshPoint> TriMesh<P> {
     }
     /// One half-edge per edge (the one with the smaller key).
     pub fn edge_ids(&self) -> impl Iterator<Item = HalfEdgeId> + '_ {
-        self.half_edges.iter().filter(|(h, e)| *h < e.twin).map(|(h, _)| h)
+        self.half_edges
+            .iter()
+            .filter(|(h, e)| *h < e.twin)
+            .map(|(h, _)| h)
     }
     /// Iterator over (key, vertex).
     pub fn vertices(&self) -> impl Iterator<Item = (VertexId, &Vertex<P>)> + '_ {
@@ -375,7 +413,7 @@ impl<P: MeshPoint> TriMesh<P> {
         let mut h = start;
         loop {
             out.push(h);
-            h = self.next(self.twin(h));
+            h = self.half_edges[self.half_edges[h].twin].next;
             if h == start || out.len() > self.half_edges.len() {
                 break;
             }
@@ -388,7 +426,10 @@ impl<P: MeshPoint> TriMesh<P> {
     }
     /// The faces around `v`.
     pub fn vertex_faces(&self, v: VertexId) -> SmallVec<[FaceId; 8]> {
-        self.outgoing(v).into_iter().filter_map(|h| self.face_of(h)).collect()
+        self.outgoing(v)
+            .into_iter()
+            .filter_map(|h| self.face_of(h))
+            .collect()
     }
     /// Number of edges at `v`.
     pub fn valence(&self, v: VertexId) -> usize {
@@ -400,10 +441,12 @@ impl<P: MeshPoint> TriMesh<P> {
         let mut h = start;
         let mut steps = 0;
         loop {
-            if self.dest(h) == b {
+            // One record per step: the twin holds both the destination and the next outgoing.
+            let t = &self.half_edges[self.half_edges[h].twin];
+            if t.origin == b {
                 return Some(h);
             }
-            h = self.next(self.twin(h));
+            h = t.next;
             steps += 1;
             if h == start || steps > self.half_edges.len() {
                 return None;
@@ -449,7 +492,10 @@ impl<P: MeshPoint> TriMesh<P> {
     /// Builds a mesh from points and counter-clockwise triangles (indices into `points`).
     /// Every point must be used; the result must be manifold. Returns the mesh and the vertex
     /// key of each point.
-    pub fn from_arrays(points: &[P], triangles: &[[usize; 3]]) -> Result<(Self, Vec<VertexId>), crate::Error> {
+    pub fn from_arrays(
+        points: &[P],
+        triangles: &[[usize; 3]],
+    ) -> Result<(Self, Vec<VertexId>), crate::Error> {
         use crate::Error::InvalidMesh;
         let mut m = TriMesh::with_capacity(points.len());
         let mut ids = Vec::with_capacity(points.len());
@@ -457,23 +503,34 @@ impl<P: MeshPoint> TriMesh<P> {
             if !p.finite() {
                 return Err(InvalidMesh(format!("point {i} is not finite")));
             }
-            ids.push(m.vertices.insert(Vertex { pos: p, out: HalfEdgeId::default(), tag: VertexTag::Interior }));
+            ids.push(m.vertices.insert(Vertex {
+                pos: p,
+                out: HalfEdgeId::default(),
+                tag: VertexTag::Interior,
+            }));
         }
         let mut used = vec![false; points.len()];
-        let mut edge_map: HashMap<(usize, usize), HalfEdgeId> = HashMap::with_capacity(triangles.len() * 3);
+        let mut edge_map: HashMap<(usize, usize), HalfEdgeId> =
+            HashMap::with_capacity(triangles.len() * 3);
         // Insertion order, so that the result never depends on hash iteration order.
         let mut listed: Vec<(usize, usize, HalfEdgeId)> = Vec::with_capacity(triangles.len() * 3);
         for (ti, t) in triangles.iter().enumerate() {
             for &i in t {
                 if i >= points.len() {
-                    return Err(InvalidMesh(format!("triangle {ti} refers to point {i}, past the {} points", points.len())));
+                    return Err(InvalidMesh(format!(
+                        "triangle {ti} refers to point {i}, past the {} points",
+                        points.len()
+                    )));
                 }
                 used[i] = true;
             }
             if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
                 return Err(InvalidMesh(format!("triangle {ti} repeats a vertex")));
             }
-            let f = m.faces.insert(Face { half_edge: HalfEdgeId::default(), label: 0 });
+            let f = m.faces.insert(Face {
+                half_edge: HalfEdgeId::default(),
+                label: 0,
+            });
             let mut hs = [HalfEdgeId::default(); 3];
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
@@ -506,7 +563,12 @@ impl<P: MeshPoint> TriMesh<P> {
             if let Some(&t) = edge_map.get(&(b, a)) {
                 m.half_edges[h].twin = t;
             } else {
-                let t = m.half_edges.insert(HalfEdge { origin: ids[b], twin: h, next: HalfEdgeId::default(), face: None });
+                let t = m.half_edges.insert(HalfEdge {
+                    origin: ids[b],
+                    twin: h,
+                    next: HalfEdgeId::default(),
+                    face: None,
+                });
                 m.half_edges[h].twin = t;
                 boundary.push(t);
             }
@@ -521,7 +583,9 @@ impl<P: MeshPoint> TriMesh<P> {
             let v = m.half_edges[b].origin;
             let i = index_of[v];
             if has_boundary_out[i] {
-                return Err(InvalidMesh(format!("point {i} is a non-manifold boundary vertex (two boundary fans)")));
+                return Err(InvalidMesh(format!(
+                    "point {i} is a non-manifold boundary vertex (two boundary fans)"
+                )));
             }
             has_boundary_out[i] = true;
             m.vertices[v].out = b;
@@ -545,7 +609,9 @@ impl<P: MeshPoint> TriMesh<P> {
         }
         for (i, &v) in ids.iter().enumerate() {
             if m.outgoing(v).len() != count[i] {
-                return Err(InvalidMesh(format!("point {i} is a non-manifold vertex (its triangles form several fans)")));
+                return Err(InvalidMesh(format!(
+                    "point {i} is a non-manifold vertex (its triangles form several fans)"
+                )));
             }
         }
         Ok((m, ids))
