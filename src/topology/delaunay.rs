@@ -84,12 +84,7 @@ impl TriMesh<DVec2> {
             let Some(plan) = self.interior_quad(h) else {
                 continue;
             };
-            let (pa, pb, pc, pd) = (
-                self.pos(plan.a),
-                self.pos(plan.b),
-                self.pos(plan.c),
-                self.pos(plan.d),
-            );
+            let (pa, pb, pc, pd) = (self.pos(plan.a), self.pos(plan.b), self.pos(plan.c), self.pos(plan.d));
             if incircle(pa, pb, pc, pd) != Sign::Positive {
                 continue;
             }
@@ -113,9 +108,7 @@ impl TriMesh<DVec2> {
     /// edge cannot exist yet in a planar triangulation, see `NEEDS_DUPLICATE_EDGE_CHECK`).
     #[inline]
     fn quad_flippable(&self, plan: &FlipPlan, pa: DVec2, pb: DVec2, pc: DVec2, pd: DVec2) -> bool {
-        plan.c != plan.d
-            && orient2d(pc, pa, pd) == Sign::Positive
-            && orient2d(pd, pb, pc) == Sign::Positive
+        plan.c != plan.d && orient2d(pc, pa, pd) == Sign::Positive && orient2d(pd, pb, pc) == Sign::Positive
     }
 
     /// Locates `p` by a visibility walk from face `start` (exact orientations; the edge to test
@@ -134,11 +127,7 @@ impl TriMesh<DVec2> {
             let e2 = self.half_edges[e1.next];
             let hs = [h0, e0.next, e1.next];
             let es = [e0, e1, e2];
-            let ps = [
-                self.pos(e0.origin),
-                self.pos(e1.origin),
-                self.pos(e2.origin),
-            ];
+            let ps = [self.pos(e0.origin), self.pos(e1.origin), self.pos(e2.origin)];
             rot = rot.wrapping_mul(1103515245).wrapping_add(12345);
             let r = (rot >> 16) % 3;
             let mut on_edge = None;
@@ -261,9 +250,7 @@ impl TriMesh<DVec2> {
         let out = self.vertex(v).out;
         match self.face_of(out) {
             Some(f) => f,
-            None => self
-                .face_of(self.twin(out))
-                .expect("an edge has a face on one side"),
+            None => self.face_of(self.twin(out)).expect("an edge has a face on one side"),
         }
     }
 
@@ -280,9 +267,7 @@ impl TriMesh<DVec2> {
             }
         }
         if points.len() < 3 {
-            return Err(crate::Error::InvalidMesh(
-                "a triangulation needs at least three points".into(),
-            ));
+            return Err(crate::Error::InvalidMesh("a triangulation needs at least three points".into()));
         }
         let mut lo = DVec2::splat(f64::INFINITY);
         let mut hi = DVec2::splat(f64::NEG_INFINITY);
@@ -295,13 +280,8 @@ impl TriMesh<DVec2> {
         // A far enclosing triangle: hull edges are recovered exactly afterwards by ear filling
         // and flips, so its size only affects how many repairs that takes.
         let big = 1e4 * r;
-        let s = [
-            c + DVec2::new(-big, -big),
-            c + DVec2::new(big, -big),
-            c + DVec2::new(0.0, big),
-        ];
-        let (mut m, sid) = TriMesh::from_arrays(&s, &[[0, 1, 2]])
-            .map_err(|e| crate::Error::Internal(e.to_string()))?;
+        let s = [c + DVec2::new(-big, -big), c + DVec2::new(big, -big), c + DVec2::new(0.0, big)];
+        let (mut m, sid) = TriMesh::from_arrays(&s, &[[0, 1, 2]]).map_err(|e| crate::Error::Internal(e.to_string()))?;
         m.vertices.reserve(points.len());
         m.half_edges.reserve(6 * points.len());
         m.faces.reserve(2 * points.len());
@@ -312,9 +292,7 @@ impl TriMesh<DVec2> {
         for &i in &order {
             let (v, f) = m
                 .insert_delaunay_with(points[i], hint, &mut stack)
-                .ok_or_else(|| {
-                    crate::Error::Internal("point outside the enclosing triangle".into())
-                })?;
+                .ok_or_else(|| crate::Error::Internal("point outside the enclosing triangle".into()))?;
             ids[i] = v;
             hint = f;
         }
@@ -371,18 +349,13 @@ impl TriMesh<DVec2> {
             self.vertices.remove(v);
         }
         // Boundary half-edges: each surviving vertex on the boundary gets exactly one.
-        let boundary: Vec<HalfEdgeId> = touched
-            .iter()
-            .copied()
-            .filter(|&h| self.half_edges.get(h).is_some_and(|e| e.face.is_none()))
-            .collect();
+        let boundary: Vec<HalfEdgeId> =
+            touched.iter().copied().filter(|&h| self.half_edges.get(h).is_some_and(|e| e.face.is_none())).collect();
         let mut seen = slotmap::SecondaryMap::new();
         for &h in &boundary {
             let v = self.origin(h);
             if seen.insert(v, ()).is_some() {
-                return Err(crate::Error::Internal(
-                    "non-manifold hull after removing the enclosing triangle".into(),
-                ));
+                return Err(crate::Error::Internal("non-manifold hull after removing the enclosing triangle".into()));
             }
             self.vertices[v].out = h;
         }
@@ -392,11 +365,8 @@ impl TriMesh<DVec2> {
         }
         // Vertices whose out half-edge was removed take any surviving outgoing one. Only the
         // origins of removed half-edges can need it; if one does, scan as before.
-        let stale_out = dead_origins.iter().any(|&v| {
-            self.vertices
-                .get(v)
-                .is_some_and(|vx| !self.half_edges.contains_key(vx.out))
-        });
+        let stale_out =
+            dead_origins.iter().any(|&v| self.vertices.get(v).is_some_and(|vx| !self.half_edges.contains_key(vx.out)));
         if stale_out {
             let repoint: Vec<(VertexId, HalfEdgeId)> = self
                 .half_edges
@@ -413,20 +383,13 @@ impl TriMesh<DVec2> {
         }
         // Convexify: fill every left turn of the boundary.
         let mut ears: Vec<FaceId> = Vec::new();
-        let mut work: Vec<HalfEdgeId> = boundary
-            .into_iter()
-            .filter(|h| self.half_edges.contains_key(*h))
-            .collect();
+        let mut work: Vec<HalfEdgeId> = boundary.into_iter().filter(|h| self.half_edges.contains_key(*h)).collect();
         while let Some(h) = work.pop() {
             if !self.contains_half_edge(h) || self.face_of(h).is_some() {
                 continue;
             }
             let g = self.next(h);
-            let (a, b, c) = (
-                self.pos(self.origin(h)),
-                self.pos(self.origin(g)),
-                self.pos(self.dest(g)),
-            );
+            let (a, b, c) = (self.pos(self.origin(h)), self.pos(self.origin(g)), self.pos(self.dest(g)));
             if orient2d(a, b, c) == Sign::Positive {
                 if let Ok(f) = self.fill_boundary_ear(h, 0) {
                     ears.push(f);
@@ -452,11 +415,7 @@ impl TriMesh<DVec2> {
         }
         stack.sort_unstable();
         stack.dedup();
-        stack.retain(|&h| {
-            !self.is_boundary_edge(h)
-                && !self.is_constrained_edge(h)
-                && !self.is_locally_delaunay(h)
-        });
+        stack.retain(|&h| !self.is_boundary_edge(h) && !self.is_constrained_edge(h) && !self.is_locally_delaunay(h));
         self.legalize(stack);
         Ok(())
     }

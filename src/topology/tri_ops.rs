@@ -2,9 +2,7 @@
 //! boundary ear filling. Each is a `check_*` that only reads and returns a plan or a
 //! [`Refusal`], and an `apply_*` that only writes and cannot fail.
 
-use super::trimesh::{
-    Face, FaceId, HalfEdge, HalfEdgeId, MeshPoint, TriMesh, Vertex, VertexId, VertexTag,
-};
+use super::trimesh::{Face, FaceId, HalfEdge, HalfEdgeId, MeshPoint, TriMesh, Vertex, VertexId, VertexTag};
 use super::Refusal;
 use crate::predicates::Sign;
 use smallvec::SmallVec;
@@ -97,10 +95,8 @@ impl<P: MeshPoint> TriMesh<P> {
         }
         let (pa, pb, pc, pd) = (self.pos(a), self.pos(b), self.pos(c), self.pos(d));
         // Both new triangles positive: the quad a-d-b-c is strictly convex at a and b.
-        let convex = positive(P::orientation(pc, pa, pd))
-            .and_then(|()| positive(P::orientation(pd, pb, pc)));
-        if convex.is_err() && !P::NEEDS_DUPLICATE_EDGE_CHECK && self.find_half_edge(c, d).is_some()
-        {
+        let convex = positive(P::orientation(pc, pa, pd)).and_then(|()| positive(P::orientation(pd, pb, pc)));
+        if convex.is_err() && !P::NEEDS_DUPLICATE_EDGE_CHECK && self.find_half_edge(c, d).is_some() {
             // The skipped search still decides the reason of a refusal, as it always did.
             return Err(Refusal::DuplicateEdge);
         }
@@ -110,35 +106,14 @@ impl<P: MeshPoint> TriMesh<P> {
     /// The flip plan of the interior edge of `h` (records `eh` of `h` and `et` of its twin `t`,
     /// faces `f1` and `f2`): topology only, nothing checked.
     #[inline]
-    fn flip_quad(
-        &self,
-        h: HalfEdgeId,
-        eh: HalfEdge,
-        t: HalfEdgeId,
-        et: HalfEdge,
-        f1: FaceId,
-        f2: FaceId,
-    ) -> FlipPlan {
+    fn flip_quad(&self, h: HalfEdgeId, eh: HalfEdge, t: HalfEdgeId, et: HalfEdge, f1: FaceId, f2: FaceId) -> FlipPlan {
         let h_bc = eh.next;
         let h_ca = self.half_edges[h_bc].next;
         let t_ad = et.next;
         let t_db = self.half_edges[t_ad].next;
         let c = self.half_edges[h_ca].origin;
         let d = self.half_edges[t_db].origin;
-        FlipPlan {
-            h,
-            t,
-            h_bc,
-            h_ca,
-            t_ad,
-            t_db,
-            a: eh.origin,
-            b: et.origin,
-            c,
-            d,
-            f1,
-            f2,
-        }
+        FlipPlan { h, t, h_bc, h_ca, t_ad, t_db, a: eh.origin, b: et.origin, c, d, f1, f2 }
     }
 
     /// Applies a checked flip. Afterwards `h` runs d -> c and `twin(h)` c -> d.
@@ -231,19 +206,14 @@ impl<P: MeshPoint> TriMesh<P> {
             VertexTag::Boundary
         } else if self.is_constrained_edge(h) {
             let curve = match (self.tag(a), self.tag(b)) {
-                (VertexTag::InternalBoundary { curve }, _)
-                | (_, VertexTag::InternalBoundary { curve }) => curve,
+                (VertexTag::InternalBoundary { curve }, _) | (_, VertexTag::InternalBoundary { curve }) => curve,
                 _ => 0,
             };
             VertexTag::InternalBoundary { curve }
         } else {
             VertexTag::Interior
         };
-        let t_prev = if self.face_of(t).is_none() {
-            Some(self.prev(t))
-        } else {
-            None
-        };
+        let t_prev = if self.face_of(t).is_none() { Some(self.prev(t)) } else { None };
         Ok(SplitPlan { h, p, tag, t_prev })
     }
 
@@ -256,23 +226,9 @@ impl<P: MeshPoint> TriMesh<P> {
         let f1 = self.face_of(h);
         let f2 = self.face_of(t);
         let hn = self.next(h);
-        let v = self.vertices.insert(Vertex {
-            pos: plan.p,
-            out: h,
-            tag: plan.tag,
-        });
-        let h2 = self.half_edges.insert(HalfEdge {
-            origin: v,
-            twin: t,
-            next: hn,
-            face: f1,
-        });
-        let t2 = self.half_edges.insert(HalfEdge {
-            origin: b,
-            twin: h2,
-            next: t,
-            face: f2,
-        });
+        let v = self.vertices.insert(Vertex { pos: plan.p, out: h, tag: plan.tag });
+        let h2 = self.half_edges.insert(HalfEdge { origin: v, twin: t, next: hn, face: f1 });
+        let t2 = self.half_edges.insert(HalfEdge { origin: b, twin: h2, next: t, face: f2 });
         self.half_edges[h2].twin = t2;
         self.half_edges[t].origin = v;
         let _ = a;
@@ -286,22 +242,9 @@ impl<P: MeshPoint> TriMesh<P> {
                 let h_ca = self.next(h_bc);
                 let c = self.origin(h_ca);
                 let label = self.faces[f1].label;
-                let f3 = self.faces.insert(Face {
-                    half_edge: h2,
-                    label,
-                });
-                let m = self.half_edges.insert(HalfEdge {
-                    origin: v,
-                    twin: h,
-                    next: h_ca,
-                    face: Some(f1),
-                });
-                let mt = self.half_edges.insert(HalfEdge {
-                    origin: c,
-                    twin: m,
-                    next: h2,
-                    face: Some(f3),
-                });
+                let f3 = self.faces.insert(Face { half_edge: h2, label });
+                let m = self.half_edges.insert(HalfEdge { origin: v, twin: h, next: h_ca, face: Some(f1) });
+                let mt = self.half_edges.insert(HalfEdge { origin: c, twin: m, next: h2, face: Some(f3) });
                 self.half_edges[m].twin = mt;
                 self.half_edges[h].next = m;
                 self.half_edges[h2].face = Some(f3);
@@ -322,22 +265,9 @@ impl<P: MeshPoint> TriMesh<P> {
                 let t_db = self.next(t_ad);
                 let d = self.origin(t_db);
                 let label = self.faces[f2].label;
-                let f4 = self.faces.insert(Face {
-                    half_edge: t2,
-                    label,
-                });
-                let n = self.half_edges.insert(HalfEdge {
-                    origin: v,
-                    twin: t,
-                    next: t_db,
-                    face: Some(f4),
-                });
-                let nt = self.half_edges.insert(HalfEdge {
-                    origin: d,
-                    twin: n,
-                    next: t,
-                    face: Some(f2),
-                });
+                let f4 = self.faces.insert(Face { half_edge: t2, label });
+                let n = self.half_edges.insert(HalfEdge { origin: v, twin: t, next: t_db, face: Some(f4) });
+                let nt = self.half_edges.insert(HalfEdge { origin: d, twin: n, next: t, face: Some(f2) });
                 self.half_edges[n].twin = nt;
                 self.half_edges[t_ad].next = nt;
                 self.half_edges[t2].next = n;
@@ -347,9 +277,7 @@ impl<P: MeshPoint> TriMesh<P> {
                 self.faces[f2].half_edge = t;
             }
             None => {
-                let tp = plan
-                    .t_prev
-                    .expect("split plan without the boundary predecessor");
+                let tp = plan.t_prev.expect("split plan without the boundary predecessor");
                 self.half_edges[tp].next = t2;
                 self.half_edges[t2].next = t;
             }
@@ -467,23 +395,9 @@ impl<P: MeshPoint> TriMesh<P> {
                 positive(P::orientation(pos, p1, p2))?;
             }
         }
-        let h_prev = if f1.is_none() {
-            Some(self.prev(h))
-        } else {
-            None
-        };
-        let t_prev = if f2.is_none() {
-            Some(self.prev(t))
-        } else {
-            None
-        };
-        Ok(CollapsePlan {
-            h,
-            pos,
-            a_out,
-            h_prev,
-            t_prev,
-        })
+        let h_prev = if f1.is_none() { Some(self.prev(h)) } else { None };
+        let t_prev = if f2.is_none() { Some(self.prev(t)) } else { None };
+        Ok(CollapsePlan { h, pos, a_out, h_prev, t_prev })
     }
 
     /// Applies a checked collapse; returns the surviving vertex b.
@@ -518,9 +432,7 @@ impl<P: MeshPoint> TriMesh<P> {
                 b_out_candidate = Some(e2);
             }
             None => {
-                let hp = plan
-                    .h_prev
-                    .expect("collapse plan without boundary predecessor");
+                let hp = plan.h_prev.expect("collapse plan without boundary predecessor");
                 let hn = self.next(h);
                 self.half_edges[hp].next = hn;
                 b_out_candidate.get_or_insert(hn);
@@ -544,9 +456,7 @@ impl<P: MeshPoint> TriMesh<P> {
                 b_out_candidate.get_or_insert(e4);
             }
             None => {
-                let tp = plan
-                    .t_prev
-                    .expect("collapse plan without boundary predecessor");
+                let tp = plan.t_prev.expect("collapse plan without boundary predecessor");
                 let tn = self.next(t);
                 self.half_edges[tp].next = tn;
                 b_out_candidate = Some(tn);
@@ -616,72 +526,26 @@ impl<P: MeshPoint> TriMesh<P> {
 
     /// [`TriMesh::apply_insert_in_face`], also returning the three old edges of the face
     /// (a -> b, b -> c, c -> a), now the link of the new vertex.
-    pub(crate) fn insert_in_face_raw(
-        &mut self,
-        plan: InsertPlan<P>,
-    ) -> (VertexId, [HalfEdgeId; 3]) {
+    pub(crate) fn insert_in_face_raw(&mut self, plan: InsertPlan<P>) -> (VertexId, [HalfEdgeId; 3]) {
         let f = plan.f;
-        let Face {
-            half_edge: hab,
-            label,
-        } = self.faces[f];
+        let Face { half_edge: hab, label } = self.faces[f];
         let hbc = self.half_edges[hab].next;
         let e_bc = self.half_edges[hbc];
         let hca = e_bc.next;
         let a = self.half_edges[hab].origin;
         let b = e_bc.origin;
         let c = self.half_edges[hca].origin;
-        let v = self.vertices.insert(Vertex {
-            pos: plan.p,
-            out: hab,
-            tag: VertexTag::Interior,
-        });
-        let f2 = self.faces.insert(Face {
-            half_edge: hbc,
-            label,
-        });
-        let f3 = self.faces.insert(Face {
-            half_edge: hca,
-            label,
-        });
+        let v = self.vertices.insert(Vertex { pos: plan.p, out: hab, tag: VertexTag::Interior });
+        let f2 = self.faces.insert(Face { half_edge: hbc, label });
+        let f3 = self.faces.insert(Face { half_edge: hca, label });
         // Inserted in the order va, av, vb, bv, vc, cv; the keys not known yet are patched after.
         let he = &mut self.half_edges;
-        let va = he.insert(HalfEdge {
-            origin: v,
-            twin: hab,
-            next: hab,
-            face: Some(f),
-        });
-        let av = he.insert(HalfEdge {
-            origin: a,
-            twin: va,
-            next: hab,
-            face: Some(f3),
-        });
-        let vb = he.insert(HalfEdge {
-            origin: v,
-            twin: hab,
-            next: hbc,
-            face: Some(f2),
-        });
-        let bv = he.insert(HalfEdge {
-            origin: b,
-            twin: vb,
-            next: va,
-            face: Some(f),
-        });
-        let vc = he.insert(HalfEdge {
-            origin: v,
-            twin: hab,
-            next: hca,
-            face: Some(f3),
-        });
-        let cv = he.insert(HalfEdge {
-            origin: c,
-            twin: vc,
-            next: vb,
-            face: Some(f2),
-        });
+        let va = he.insert(HalfEdge { origin: v, twin: hab, next: hab, face: Some(f) });
+        let av = he.insert(HalfEdge { origin: a, twin: va, next: hab, face: Some(f3) });
+        let vb = he.insert(HalfEdge { origin: v, twin: hab, next: hbc, face: Some(f2) });
+        let bv = he.insert(HalfEdge { origin: b, twin: vb, next: va, face: Some(f) });
+        let vc = he.insert(HalfEdge { origin: v, twin: hab, next: hca, face: Some(f3) });
+        let cv = he.insert(HalfEdge { origin: c, twin: vc, next: vb, face: Some(f2) });
         he[va].twin = av;
         let x = &mut he[av];
         x.next = vc;
@@ -721,11 +585,7 @@ impl<P: MeshPoint> TriMesh<P> {
         loop {
             if self.half_edges[x].face.is_some() {
                 let y = self.next(x);
-                positive(P::orientation(
-                    p,
-                    self.pos(self.origin(y)),
-                    self.pos(self.dest(y)),
-                ))?;
+                positive(P::orientation(p, self.pos(self.origin(y)), self.pos(self.dest(y))))?;
             }
             x = self.next(self.twin(x));
             if x == start {
@@ -759,22 +619,9 @@ impl<P: MeshPoint> TriMesh<P> {
         positive(P::orientation(self.pos(a), self.pos(b), self.pos(c)))?;
         let hp = self.prev(h);
         let gn = self.next(g);
-        let f = self.faces.insert(Face {
-            half_edge: h,
-            label,
-        });
-        let e = self.half_edges.insert(HalfEdge {
-            origin: c,
-            twin: h,
-            next: h,
-            face: Some(f),
-        });
-        let et = self.half_edges.insert(HalfEdge {
-            origin: a,
-            twin: e,
-            next: gn,
-            face: None,
-        });
+        let f = self.faces.insert(Face { half_edge: h, label });
+        let e = self.half_edges.insert(HalfEdge { origin: c, twin: h, next: h, face: Some(f) });
+        let et = self.half_edges.insert(HalfEdge { origin: a, twin: e, next: gn, face: None });
         self.half_edges[e].twin = et;
         self.half_edges[h].face = Some(f);
         self.half_edges[h].next = g;

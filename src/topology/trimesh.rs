@@ -110,21 +110,9 @@ impl MeshPoint for DVec3 {
     }
     fn orientation(a: Self, b: Self, c: Self) -> Sign {
         // Exactly degenerate when all three coordinate-plane projections are collinear.
-        let xy = orient2d(
-            DVec2::new(a.x, a.y),
-            DVec2::new(b.x, b.y),
-            DVec2::new(c.x, c.y),
-        );
-        let yz = orient2d(
-            DVec2::new(a.y, a.z),
-            DVec2::new(b.y, b.z),
-            DVec2::new(c.y, c.z),
-        );
-        let zx = orient2d(
-            DVec2::new(a.z, a.x),
-            DVec2::new(b.z, b.x),
-            DVec2::new(c.z, c.x),
-        );
+        let xy = orient2d(DVec2::new(a.x, a.y), DVec2::new(b.x, b.y), DVec2::new(c.x, c.y));
+        let yz = orient2d(DVec2::new(a.y, a.z), DVec2::new(b.y, b.z), DVec2::new(c.y, c.z));
+        let zx = orient2d(DVec2::new(a.z, a.x), DVec2::new(b.z, b.x), DVec2::new(c.z, c.x));
         if xy == Sign::Zero && yz == Sign::Zero && zx == Sign::Zero {
             Sign::Zero
         } else {
@@ -180,21 +168,9 @@ impl<P: MeshPoint> PartialEq for TriMesh<P> {
         self.vertices.len() == other.vertices.len()
             && self.half_edges.len() == other.half_edges.len()
             && self.faces.len() == other.faces.len()
-            && self
-                .vertices
-                .iter()
-                .zip(other.vertices.iter())
-                .all(|(a, b)| a == b)
-            && self
-                .half_edges
-                .iter()
-                .zip(other.half_edges.iter())
-                .all(|(a, b)| a == b)
-            && self
-                .faces
-                .iter()
-                .zip(other.faces.iter())
-                .all(|(a, b)| a == b)
+            && self.vertices.iter().zip(other.vertices.iter()).all(|(a, b)| a == b)
+            && self.half_edges.iter().zip(other.half_edges.iter()).all(|(a, b)| a == b)
+            && self.faces.iter().zip(other.faces.iter()).all(|(a, b)| a == b)
     }
 }
 
@@ -207,11 +183,7 @@ impl<P: MeshPoint> Default for TriMesh<P> {
 impl<P: MeshPoint> TriMesh<P> {
     /// An empty mesh.
     pub fn new() -> Self {
-        TriMesh {
-            vertices: SlotMap::with_key(),
-            half_edges: SlotMap::with_key(),
-            faces: SlotMap::with_key(),
-        }
+        TriMesh { vertices: SlotMap::with_key(), half_edges: SlotMap::with_key(), faces: SlotMap::with_key() }
     }
 
     /// An empty mesh with room for about `n` vertices.
@@ -308,10 +280,7 @@ impl<P: MeshPoint> TriMesh<P> {
     }
     /// One half-edge per edge (the one with the smaller key).
     pub fn edge_ids(&self) -> impl Iterator<Item = HalfEdgeId> + '_ {
-        self.half_edges
-            .iter()
-            .filter(|(h, e)| *h < e.twin)
-            .map(|(h, _)| h)
+        self.half_edges.iter().filter(|(h, e)| *h < e.twin).map(|(h, _)| h)
     }
     /// Iterator over (key, vertex).
     pub fn vertices(&self) -> impl Iterator<Item = (VertexId, &Vertex<P>)> + '_ {
@@ -426,10 +395,7 @@ impl<P: MeshPoint> TriMesh<P> {
     }
     /// The faces around `v`.
     pub fn vertex_faces(&self, v: VertexId) -> SmallVec<[FaceId; 8]> {
-        self.outgoing(v)
-            .into_iter()
-            .filter_map(|h| self.face_of(h))
-            .collect()
+        self.outgoing(v).into_iter().filter_map(|h| self.face_of(h)).collect()
     }
     /// Number of edges at `v`.
     pub fn valence(&self, v: VertexId) -> usize {
@@ -492,10 +458,7 @@ impl<P: MeshPoint> TriMesh<P> {
     /// Builds a mesh from points and counter-clockwise triangles (indices into `points`).
     /// Every point must be used; the result must be manifold. Returns the mesh and the vertex
     /// key of each point.
-    pub fn from_arrays(
-        points: &[P],
-        triangles: &[[usize; 3]],
-    ) -> Result<(Self, Vec<VertexId>), crate::Error> {
+    pub fn from_arrays(points: &[P], triangles: &[[usize; 3]]) -> Result<(Self, Vec<VertexId>), crate::Error> {
         use crate::Error::InvalidMesh;
         let mut m = TriMesh::with_capacity(points.len());
         let mut ids = Vec::with_capacity(points.len());
@@ -503,15 +466,10 @@ impl<P: MeshPoint> TriMesh<P> {
             if !p.finite() {
                 return Err(InvalidMesh(format!("point {i} is not finite")));
             }
-            ids.push(m.vertices.insert(Vertex {
-                pos: p,
-                out: HalfEdgeId::default(),
-                tag: VertexTag::Interior,
-            }));
+            ids.push(m.vertices.insert(Vertex { pos: p, out: HalfEdgeId::default(), tag: VertexTag::Interior }));
         }
         let mut used = vec![false; points.len()];
-        let mut edge_map: HashMap<(usize, usize), HalfEdgeId> =
-            HashMap::with_capacity(triangles.len() * 3);
+        let mut edge_map: HashMap<(usize, usize), HalfEdgeId> = HashMap::with_capacity(triangles.len() * 3);
         // Insertion order, so that the result never depends on hash iteration order.
         let mut listed: Vec<(usize, usize, HalfEdgeId)> = Vec::with_capacity(triangles.len() * 3);
         for (ti, t) in triangles.iter().enumerate() {
@@ -527,10 +485,7 @@ impl<P: MeshPoint> TriMesh<P> {
             if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
                 return Err(InvalidMesh(format!("triangle {ti} repeats a vertex")));
             }
-            let f = m.faces.insert(Face {
-                half_edge: HalfEdgeId::default(),
-                label: 0,
-            });
+            let f = m.faces.insert(Face { half_edge: HalfEdgeId::default(), label: 0 });
             let mut hs = [HalfEdgeId::default(); 3];
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
@@ -563,12 +518,8 @@ impl<P: MeshPoint> TriMesh<P> {
             if let Some(&t) = edge_map.get(&(b, a)) {
                 m.half_edges[h].twin = t;
             } else {
-                let t = m.half_edges.insert(HalfEdge {
-                    origin: ids[b],
-                    twin: h,
-                    next: HalfEdgeId::default(),
-                    face: None,
-                });
+                let t =
+                    m.half_edges.insert(HalfEdge { origin: ids[b], twin: h, next: HalfEdgeId::default(), face: None });
                 m.half_edges[h].twin = t;
                 boundary.push(t);
             }
@@ -583,9 +534,7 @@ impl<P: MeshPoint> TriMesh<P> {
             let v = m.half_edges[b].origin;
             let i = index_of[v];
             if has_boundary_out[i] {
-                return Err(InvalidMesh(format!(
-                    "point {i} is a non-manifold boundary vertex (two boundary fans)"
-                )));
+                return Err(InvalidMesh(format!("point {i} is a non-manifold boundary vertex (two boundary fans)")));
             }
             has_boundary_out[i] = true;
             m.vertices[v].out = b;
