@@ -286,15 +286,22 @@ impl TriMesh<DVec2> {
         m.half_edges.reserve(6 * points.len());
         m.faces.reserve(2 * points.len());
         let order = hilbert_order(points);
-        let mut ids = vec![VertexId::default(); points.len()];
+        // Gather the points in insertion order up front and scatter the vertex keys back at the
+        // end: in tight loops the cache misses of both overlap, in the insertion loop they stall.
+        let sorted: Vec<DVec2> = order.iter().map(|&i| points[i]).collect();
+        let mut inserted = Vec::with_capacity(points.len());
         let mut hint = m.face_ids().next().expect("one face");
         let mut stack = Vec::new();
-        for &i in &order {
+        for &p in &sorted {
             let (v, f) = m
-                .insert_delaunay_with(points[i], hint, &mut stack)
+                .insert_delaunay_with(p, hint, &mut stack)
                 .ok_or_else(|| crate::Error::Internal("point outside the enclosing triangle".into()))?;
-            ids[i] = v;
+            inserted.push(v);
             hint = f;
+        }
+        let mut ids = vec![VertexId::default(); points.len()];
+        for (&i, &v) in order.iter().zip(&inserted) {
+            ids[i] = v;
         }
         m.remove_enclosing(&sid)?;
         Ok((m, ids))
