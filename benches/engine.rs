@@ -86,7 +86,9 @@ fn delaunay(c: &mut Criterion) {
         let pts = random_points(n, SEED);
         let sp: Vec<Point2<f64>> = pts.iter().map(|p: &DVec2| Point2::new(p.x, p.y)).collect();
         g.throughput(Throughput::Elements(n as u64));
-        g.bench_function(format!("trussmesh incremental {n}"), |b| b.iter(|| TriMesh::delaunay(&pts).unwrap().0.num_faces()));
+        g.bench_function(format!("trussmesh incremental {n}"), |b| {
+            b.iter(|| TriMesh::delaunay(&pts).unwrap().0.num_faces())
+        });
         g.bench_function(format!("spade bulk_load {n}"), |b| {
             b.iter(|| DelaunayTriangulation::<Point2<f64>>::bulk_load(sp.clone()).unwrap().num_inner_faces())
         });
