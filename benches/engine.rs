@@ -1,7 +1,7 @@
 //! The half-edge engine: flips, splits and collapses per second, and Delaunay construction of
 //! random points compared with spade on the same points in the same run.
 
-use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion, SamplingMode, Throughput};
 use glam::DVec2;
 use trussmesh::testing::{random_points, SEED};
 use trussmesh::topology::TriMesh;
@@ -79,11 +79,16 @@ fn delaunay(c: &mut Criterion) {
     use spade::{DelaunayTriangulation, Point2, Triangulation};
     let mut g = c.benchmark_group("delaunay");
     g.sample_size(10);
+    // One iteration per sample: linear sampling would run 55 iterations of spade's unordered
+    // incremental insertion of 10^6 points (tens of seconds each).
+    g.sampling_mode(SamplingMode::Flat);
     for &n in &[100_000usize, 1_000_000] {
         let pts = random_points(n, SEED);
         let sp: Vec<Point2<f64>> = pts.iter().map(|p: &DVec2| Point2::new(p.x, p.y)).collect();
         g.throughput(Throughput::Elements(n as u64));
-        g.bench_function(format!("trussmesh incremental {n}"), |b| b.iter(|| TriMesh::delaunay(&pts).unwrap().0.num_faces()));
+        g.bench_function(format!("trussmesh incremental {n}"), |b| {
+            b.iter(|| TriMesh::delaunay(&pts).unwrap().0.num_faces())
+        });
         g.bench_function(format!("spade bulk_load {n}"), |b| {
             b.iter(|| DelaunayTriangulation::<Point2<f64>>::bulk_load(sp.clone()).unwrap().num_inner_faces())
         });

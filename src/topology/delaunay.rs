@@ -1,6 +1,7 @@
 //! Delaunay by local flipping: the Lawson flip loop with exact in-circle, and incremental
 //! insertion from one enclosing triangle (walk to locate, split, flip).
 
+use super::tri_ops::{FlipPlan, InsertPlan};
 use super::trimesh::{FaceId, HalfEdgeId, TriMesh, VertexId, VertexTag};
 use crate::predicates::{incircle, orient2d, Sign};
 use glam::DVec2;
@@ -76,25 +77,38 @@ impl TriMesh<DVec2> {
     pub(crate) fn legalize(&mut self, mut stack: Vec<HalfEdgeId>) -> usize {
         let mut flips = 0;
         while let Some(h) = stack.pop() {
-            if !self.contains_half_edge(h) || self.is_boundary_edge(h) || self.is_constrained_edge(h) {
+            if !self.contains_half_edge(h) {
                 continue;
             }
-            if self.is_locally_delaunay(h) {
+            // Boundary and constrained edges are never flipped.
+            let Some(plan) = self.interior_quad(h) else {
+                continue;
+            };
+            let (pa, pb, pc, pd) = (self.pos(plan.a), self.pos(plan.b), self.pos(plan.c), self.pos(plan.d));
+            if incircle(pa, pb, pc, pd) != Sign::Positive {
                 continue;
             }
             // A strictly non-Delaunay edge has a strictly convex quad, but check anyway: an
             // edge whose flip is refused (e.g. an existing c-d edge) is left alone.
-            if self.flip(h).is_ok() {
+            if self.quad_flippable(&plan, pa, pb, pc, pd) {
+                self.apply_flip(plan);
                 flips += 1;
                 // h now runs d -> c; push the four outer edges of the quad.
-                let t = self.twin(h);
-                stack.push(self.next(h));
-                stack.push(self.next(self.next(h)));
-                stack.push(self.next(t));
-                stack.push(self.next(self.next(t)));
+                stack.push(plan.h_ca);
+                stack.push(plan.t_ad);
+                stack.push(plan.t_db);
+                stack.push(plan.h_bc);
             }
         }
         flips
+    }
+
+    /// What [`TriMesh::check_flip`] decides for an interior quad of equal labels, given its
+    /// four positions: no repeated vertex and both new triangles strictly positive (the new
+    /// edge cannot exist yet in a planar triangulation, see `NEEDS_DUPLICATE_EDGE_CHECK`).
+    #[inline]
+    fn quad_flippable(&self, plan: &FlipPlan, pa: DVec2, pb: DVec2, pc: DVec2, pd: DVec2) -> bool {
+        plan.c != plan.d && orient2d(pc, pa, pd) == Sign::Positive && orient2d(pd, pb, pc) == Sign::Positive
     }
 
     /// Locates `p` by a visibility walk from face `start` (exact orientations; the edge to test
@@ -105,50 +119,56 @@ impl TriMesh<DVec2> {
         let mut steps = 0usize;
         'walk: loop {
             steps += 1;
-            let hs = self.face_half_edges(f);
+            // The three half-edges and corner positions of f, each record read once; the
+            // destination of hs[k] is the origin of hs[k + 1].
+            let h0 = self.faces[f].half_edge;
+            let e0 = self.half_edges[h0];
+            let e1 = self.half_edges[e0.next];
+            let e2 = self.half_edges[e1.next];
+            let hs = [h0, e0.next, e1.next];
+            let es = [e0, e1, e2];
+            let ps = [self.pos(e0.origin), self.pos(e1.origin), self.pos(e2.origin)];
             rot = rot.wrapping_mul(1103515245).wrapping_add(12345);
             let r = (rot >> 16) % 3;
             let mut on_edge = None;
             for k in 0..3 {
-                let h = hs[(k + r) % 3];
-                let a = self.pos(self.origin(h));
-                let b = self.pos(self.dest(h));
-                match orient2d(a, b, p) {
-                    Sign::Negative => {
-                        let t = self.twin(h);
-                        match self.face_of(t) {
-                            Some(g) => {
-                                f = g;
-                                if steps > 4 * self.num_faces() + 16 {
-                                    break 'walk;
-                                }
-                                continue 'walk;
+                let i = (k + r) % 3;
+                let j = if i == 2 { 0 } else { i + 1 };
+                match orient2d(ps[i], ps[j], p) {
+                    Sign::Negative => match self.half_edges[es[i].twin].face {
+                        Some(g) => {
+                            f = g;
+                            if steps > 4 * self.num_faces() + 16 {
+                                break 'walk;
                             }
-                            None => return Location::Outside(h),
+                            continue 'walk;
                         }
-                    }
-                    Sign::Zero => on_edge = Some(h),
+                        None => return Location::Outside(hs[i]),
+                    },
+                    Sign::Zero => on_edge = Some(i),
                     Sign::Positive => {}
                 }
             }
-            if let Some(h) = on_edge {
-                let a = self.pos(self.origin(h));
-                let b = self.pos(self.dest(h));
-                if p == a {
-                    return Location::Vertex(self.origin(h));
+            if let Some(i) = on_edge {
+                let j = if i == 2 { 0 } else { i + 1 };
+                if p == ps[i] {
+                    return Location::Vertex(es[i].origin);
                 }
-                if p == b {
-                    return Location::Vertex(self.dest(h));
+                if p == ps[j] {
+                    return Location::Vertex(es[j].origin);
                 }
                 // On two edges at once means on their shared vertex, handled above.
-                return Location::Edge(h);
+                return Location::Edge(hs[i]);
             }
             return Location::Face(f);
         }
         // The walk is bounded; falling out means a broken mesh. Scan as a last resort.
         for g in self.face_ids() {
             let [a, b, c] = self.face_points(g);
-            if orient2d(a, b, p) != Sign::Negative && orient2d(b, c, p) != Sign::Negative && orient2d(c, a, p) != Sign::Negative {
+            if orient2d(a, b, p) != Sign::Negative
+                && orient2d(b, c, p) != Sign::Negative
+                && orient2d(c, a, p) != Sign::Negative
+            {
                 return Location::Face(g);
             }
         }
@@ -159,44 +179,68 @@ impl TriMesh<DVec2> {
     /// Returns the vertex (an existing one if `p` coincides with it) and a face next to it, or
     /// `None` when `p` lies outside the mesh.
     pub fn insert_delaunay(&mut self, p: DVec2, hint: FaceId) -> Option<(VertexId, FaceId)> {
+        self.insert_delaunay_with(p, hint, &mut Vec::new())
+    }
+
+    /// [`TriMesh::insert_delaunay`] with a caller-owned flip stack, reused across insertions.
+    fn insert_delaunay_with(
+        &mut self,
+        p: DVec2,
+        hint: FaceId,
+        stack: &mut Vec<HalfEdgeId>,
+    ) -> Option<(VertexId, FaceId)> {
+        stack.clear();
         let v = match self.locate(p, hint) {
             Location::Vertex(v) => return Some((v, self.face_of_vertex(v))),
             Location::Outside(_) => return None,
-            Location::Face(f) => self.insert_in_face(f, p).ok()?,
-            Location::Edge(h) => self.split_edge(h, p).ok()?,
+            Location::Face(f) => {
+                // The walk found p strictly inside f: the insertion check can only refuse a
+                // point that is not finite.
+                if !p.is_finite() {
+                    return None;
+                }
+                let (v, [hab, hbc, hca]) = self.insert_in_face_raw(InsertPlan { f, p });
+                // The link edges in the order of the ring walk from v's out (v->a, v->c, v->b).
+                stack.extend_from_slice(&[hab, hca, hbc]);
+                v
+            }
+            Location::Edge(h) => {
+                let v = self.split_edge(h, p).ok()?;
+                // Legalize the edges opposite the new vertex.
+                for x in self.outgoing(v) {
+                    if self.face_of(x).is_some() {
+                        stack.push(self.next(x));
+                    }
+                }
+                v
+            }
         };
-        // Legalize the edges opposite the new vertex.
-        let stack: Vec<HalfEdgeId> = self
-            .outgoing(v)
-            .into_iter()
-            .filter(|&x| self.face_of(x).is_some())
-            .map(|x| self.next(x))
-            .collect();
         self.legalize_around(v, stack);
         Some((v, self.face_of_vertex(v)))
     }
 
     /// Lawson flips of the link edges of a freshly inserted vertex: each flip makes two new link
     /// edges (Guibas-Stolfi insertion).
-    pub(crate) fn legalize_around(&mut self, v: VertexId, mut stack: Vec<HalfEdgeId>) {
+    pub(crate) fn legalize_around(&mut self, v: VertexId, stack: &mut Vec<HalfEdgeId>) {
+        let pv = self.pos(v);
         while let Some(h) = stack.pop() {
-            let t = self.twin(h);
-            if self.face_of(t).is_none() || self.is_constrained_edge(h) {
+            // Boundary and constrained edges stay.
+            let Some(plan) = self.interior_quad(h) else {
+                continue;
+            };
+            let a = self.pos(plan.a);
+            let b = self.pos(plan.b);
+            let d = self.pos(plan.d);
+            if incircle(a, b, pv, d) != Sign::Positive {
                 continue;
             }
-            let a = self.pos(self.origin(h));
-            let b = self.pos(self.origin(t));
-            let c = self.pos(v);
-            let d = self.pos(self.origin(self.prev(t)));
-            if incircle(a, b, c, d) == Sign::Positive && self.check_flip(h).is_ok() {
-                self.flip_unchecked(h);
-                // h now runs d -> v; the new link edges are next(twin(h)) and prev... in faces
-                // (v, a, d) and (d, b, v): the edges a->d and d->b.
-                let t = self.twin(h); // v -> d
-                let e1 = self.next(t); // d -> b
-                let e2 = self.next(self.next(h)); // a -> d
-                stack.push(e1);
-                stack.push(e2);
+            let c = if plan.c == v { pv } else { self.pos(plan.c) };
+            if self.quad_flippable(&plan, a, b, c, d) {
+                self.apply_flip(plan);
+                // h now runs d -> v; the new link edges are a -> d in face (d, v, a) and d -> b
+                // in face (v, d, b).
+                stack.push(plan.t_db);
+                stack.push(plan.t_ad);
             }
         }
     }
@@ -216,7 +260,10 @@ impl TriMesh<DVec2> {
     pub fn delaunay(points: &[DVec2]) -> Result<(TriMesh<DVec2>, Vec<VertexId>), crate::Error> {
         for p in points {
             if !p.is_finite() {
-                return Err(crate::Error::BadCoordinate { what: "delaunay input", value: if p.x.is_finite() { p.y } else { p.x } });
+                return Err(crate::Error::BadCoordinate {
+                    what: "delaunay input",
+                    value: if p.x.is_finite() { p.y } else { p.x },
+                });
             }
         }
         if points.len() < 3 {
@@ -233,24 +280,28 @@ impl TriMesh<DVec2> {
         // A far enclosing triangle: hull edges are recovered exactly afterwards by ear filling
         // and flips, so its size only affects how many repairs that takes.
         let big = 1e4 * r;
-        let s = [
-            c + DVec2::new(-big, -big),
-            c + DVec2::new(big, -big),
-            c + DVec2::new(0.0, big),
-        ];
+        let s = [c + DVec2::new(-big, -big), c + DVec2::new(big, -big), c + DVec2::new(0.0, big)];
         let (mut m, sid) = TriMesh::from_arrays(&s, &[[0, 1, 2]]).map_err(|e| crate::Error::Internal(e.to_string()))?;
         m.vertices.reserve(points.len());
         m.half_edges.reserve(6 * points.len());
         m.faces.reserve(2 * points.len());
         let order = hilbert_order(points);
-        let mut ids = vec![VertexId::default(); points.len()];
+        // Gather the points in insertion order up front and scatter the vertex keys back at the
+        // end: in tight loops the cache misses of both overlap, in the insertion loop they stall.
+        let sorted: Vec<DVec2> = order.iter().map(|&i| points[i]).collect();
+        let mut inserted = Vec::with_capacity(points.len());
         let mut hint = m.face_ids().next().expect("one face");
-        for &i in &order {
+        let mut stack = Vec::new();
+        for &p in &sorted {
             let (v, f) = m
-                .insert_delaunay(points[i], hint)
+                .insert_delaunay_with(p, hint, &mut stack)
                 .ok_or_else(|| crate::Error::Internal("point outside the enclosing triangle".into()))?;
-            ids[i] = v;
+            inserted.push(v);
             hint = f;
+        }
+        let mut ids = vec![VertexId::default(); points.len()];
+        for (&i, &v) in order.iter().zip(&inserted) {
+            ids[i] = v;
         }
         m.remove_enclosing(&sid)?;
         Ok((m, ids))
@@ -258,14 +309,30 @@ impl TriMesh<DVec2> {
 
     /// Removes the enclosing triangle's vertices and every face touching them, then restores the
     /// convex hull by filling boundary ears that turn left, and the Delaunay property by flips.
+    ///
+    /// Only the faces around the three enclosing vertices are visited; every list is sorted by
+    /// key, so removals and insertions happen in arena order, as a full scan would do them.
     fn remove_enclosing(&mut self, sid: &[VertexId]) -> Result<(), crate::Error> {
-        let is_super = |v: VertexId| sid.contains(&v);
-        let doomed: Vec<FaceId> = self
-            .faces
-            .iter()
-            .filter(|(f, _)| self.face_vertices(*f).iter().any(|&v| is_super(v)))
-            .map(|(f, _)| f)
-            .collect();
+        let mut doomed: Vec<FaceId> = Vec::new();
+        for &s in sid {
+            for x in self.outgoing(s) {
+                if let Some(f) = self.face_of(x) {
+                    doomed.push(f);
+                }
+            }
+        }
+        doomed.sort_unstable();
+        doomed.dedup();
+        // Half-edges that may lose both faces: those of doomed faces and their twins.
+        let mut touched: Vec<HalfEdgeId> = Vec::with_capacity(6 * doomed.len());
+        for f in &doomed {
+            for h in self.face_half_edges(*f) {
+                touched.push(h);
+                touched.push(self.twin(h));
+            }
+        }
+        touched.sort_unstable();
+        touched.dedup();
         for f in &doomed {
             for h in self.face_half_edges(*f) {
                 self.half_edges[h].face = None;
@@ -273,20 +340,24 @@ impl TriMesh<DVec2> {
             self.faces.remove(*f);
         }
         // Drop edges with no face on either side.
-        let dead: Vec<HalfEdgeId> = self
-            .half_edges
+        let dead: Vec<HalfEdgeId> = touched
             .iter()
-            .filter(|(_, e)| e.face.is_none() && self.half_edges[e.twin].face.is_none())
-            .map(|(h, _)| h)
+            .copied()
+            .filter(|&h| {
+                let e = &self.half_edges[h];
+                e.face.is_none() && self.half_edges[e.twin].face.is_none()
+            })
             .collect();
-        for h in dead {
+        let dead_origins: Vec<VertexId> = dead.iter().map(|&h| self.origin(h)).collect();
+        for &h in &dead {
             self.half_edges.remove(h);
         }
         for &v in sid {
             self.vertices.remove(v);
         }
         // Boundary half-edges: each surviving vertex on the boundary gets exactly one.
-        let boundary: Vec<HalfEdgeId> = self.half_edges.iter().filter(|(_, e)| e.face.is_none()).map(|(h, _)| h).collect();
+        let boundary: Vec<HalfEdgeId> =
+            touched.iter().copied().filter(|&h| self.half_edges.get(h).is_some_and(|e| e.face.is_none())).collect();
         let mut seen = slotmap::SecondaryMap::new();
         for &h in &boundary {
             let v = self.origin(h);
@@ -299,20 +370,26 @@ impl TriMesh<DVec2> {
             let d = self.dest(h);
             self.half_edges[h].next = self.vertices[d].out;
         }
-        // Vertices whose out half-edge was removed take any surviving outgoing one.
-        let repoint: Vec<(VertexId, HalfEdgeId)> = self
-            .half_edges
-            .iter()
-            .filter(|(_, e)| {
-                let out = self.vertices[e.origin].out;
-                !self.half_edges.contains_key(out) || self.half_edges[out].origin != e.origin
-            })
-            .map(|(h, e)| (e.origin, h))
-            .collect();
-        for (v, h) in repoint {
-            self.vertices[v].out = h;
+        // Vertices whose out half-edge was removed take any surviving outgoing one. Only the
+        // origins of removed half-edges can need it; if one does, scan as before.
+        let stale_out =
+            dead_origins.iter().any(|&v| self.vertices.get(v).is_some_and(|vx| !self.half_edges.contains_key(vx.out)));
+        if stale_out {
+            let repoint: Vec<(VertexId, HalfEdgeId)> = self
+                .half_edges
+                .iter()
+                .filter(|(_, e)| {
+                    let out = self.vertices[e.origin].out;
+                    !self.half_edges.contains_key(out) || self.half_edges[out].origin != e.origin
+                })
+                .map(|(h, e)| (e.origin, h))
+                .collect();
+            for (v, h) in repoint {
+                self.vertices[v].out = h;
+            }
         }
         // Convexify: fill every left turn of the boundary.
+        let mut ears: Vec<FaceId> = Vec::new();
         let mut work: Vec<HalfEdgeId> = boundary.into_iter().filter(|h| self.half_edges.contains_key(*h)).collect();
         while let Some(h) = work.pop() {
             if !self.contains_half_edge(h) || self.face_of(h).is_some() {
@@ -321,7 +398,8 @@ impl TriMesh<DVec2> {
             let g = self.next(h);
             let (a, b, c) = (self.pos(self.origin(h)), self.pos(self.origin(g)), self.pos(self.dest(g)));
             if orient2d(a, b, c) == Sign::Positive {
-                if self.fill_boundary_ear(h, 0).is_ok() {
+                if let Ok(f) = self.fill_boundary_ear(h, 0) {
+                    ears.push(f);
                     let e = self.prev(h); // the new edge c -> a inside the new face
                     let et = self.twin(e); // a -> c, boundary
                     work.push(et);
@@ -329,10 +407,23 @@ impl TriMesh<DVec2> {
                 }
             }
         }
-        for v in self.vertices.keys().collect::<Vec<_>>() {
-            self.vertices[v].tag = VertexTag::Interior;
+        for vx in self.vertices.values_mut() {
+            vx.tag = VertexTag::Interior;
         }
-        self.make_delaunay();
+        // Lawson flips. Every other edge lies between two faces of the Delaunay triangulation
+        // with the enclosing vertices, so it is locally Delaunay, and a full pass would pop it
+        // without flipping: starting from the edges of the ears that fail the in-circle test,
+        // in edge (key) order, performs exactly the flips of the full pass, in the same order.
+        let mut stack: Vec<HalfEdgeId> = Vec::with_capacity(3 * ears.len());
+        for f in ears {
+            for h in self.face_half_edges(f) {
+                stack.push(h.min(self.twin(h)));
+            }
+        }
+        stack.sort_unstable();
+        stack.dedup();
+        stack.retain(|&h| !self.is_boundary_edge(h) && !self.is_constrained_edge(h) && !self.is_locally_delaunay(h));
+        self.legalize(stack);
         Ok(())
     }
 }

@@ -30,18 +30,18 @@ fn positive(s: Sign) -> Result<(), Refusal> {
 /// ```
 #[derive(Clone, Copy, Debug)]
 pub struct FlipPlan {
-    h: HalfEdgeId,
-    t: HalfEdgeId,
-    h_bc: HalfEdgeId,
-    h_ca: HalfEdgeId,
-    t_ad: HalfEdgeId,
-    t_db: HalfEdgeId,
-    a: VertexId,
-    b: VertexId,
-    c: VertexId,
-    d: VertexId,
-    f1: FaceId,
-    f2: FaceId,
+    pub(crate) h: HalfEdgeId,
+    pub(crate) t: HalfEdgeId,
+    pub(crate) h_bc: HalfEdgeId,
+    pub(crate) h_ca: HalfEdgeId,
+    pub(crate) t_ad: HalfEdgeId,
+    pub(crate) t_db: HalfEdgeId,
+    pub(crate) a: VertexId,
+    pub(crate) b: VertexId,
+    pub(crate) c: VertexId,
+    pub(crate) d: VertexId,
+    pub(crate) f1: FaceId,
+    pub(crate) f2: FaceId,
 }
 
 /// What a checked edge split will do.
@@ -68,8 +68,8 @@ pub struct CollapsePlan<P> {
 /// What a checked insertion of a vertex inside a face will do.
 #[derive(Clone, Copy, Debug)]
 pub struct InsertPlan<P> {
-    f: FaceId,
-    p: P,
+    pub(crate) f: FaceId,
+    pub(crate) p: P,
 }
 
 impl<P: MeshPoint> TriMesh<P> {
@@ -78,50 +78,71 @@ impl<P: MeshPoint> TriMesh<P> {
     /// Checks the flip of the edge of `h`: both sides must be faces of the same label, the new
     /// edge must not exist yet, and both new triangles must be positively oriented (exact).
     pub fn check_flip(&self, h: HalfEdgeId) -> Result<FlipPlan, Refusal> {
-        self.live_he(h)?;
-        let t = self.twin(h);
-        let f1 = self.face_of(h).ok_or(Refusal::BoundaryEdge)?;
-        let f2 = self.face_of(t).ok_or(Refusal::BoundaryEdge)?;
+        let eh = *self.half_edges.get(h).ok_or(Refusal::StaleKey)?;
+        let t = eh.twin;
+        let et = self.half_edges[t];
+        let f1 = eh.face.ok_or(Refusal::BoundaryEdge)?;
+        let f2 = et.face.ok_or(Refusal::BoundaryEdge)?;
         // An edge between subdomains is an internal boundary.
         if self.faces[f1].label != self.faces[f2].label {
             return Err(Refusal::Constrained);
         }
-        let h_bc = self.next(h);
-        let h_ca = self.next(h_bc);
-        let t_ad = self.next(t);
-        let t_db = self.next(t_ad);
-        let (a, b, c, d) = (self.origin(h), self.origin(t), self.origin(h_ca), self.origin(t_db));
-        // The new edge c-d must not already exist elsewhere.
-        if c == d || self.find_half_edge(c, d).is_some() {
+        let plan = self.flip_quad(h, eh, t, et, f1, f2);
+        let (a, b, c, d) = (plan.a, plan.b, plan.c, plan.d);
+        // The new edge c-d must not already exist elsewhere (see `NEEDS_DUPLICATE_EDGE_CHECK`).
+        if c == d || (P::NEEDS_DUPLICATE_EDGE_CHECK && self.find_half_edge(c, d).is_some()) {
             return Err(Refusal::DuplicateEdge);
         }
         let (pa, pb, pc, pd) = (self.pos(a), self.pos(b), self.pos(c), self.pos(d));
         // Both new triangles positive: the quad a-d-b-c is strictly convex at a and b.
-        positive(P::orientation(pc, pa, pd))?;
-        positive(P::orientation(pd, pb, pc))?;
-        Ok(FlipPlan { h, t, h_bc, h_ca, t_ad, t_db, a, b, c, d, f1, f2 })
+        let convex = positive(P::orientation(pc, pa, pd)).and_then(|()| positive(P::orientation(pd, pb, pc)));
+        if convex.is_err() && !P::NEEDS_DUPLICATE_EDGE_CHECK && self.find_half_edge(c, d).is_some() {
+            // The skipped search still decides the reason of a refusal, as it always did.
+            return Err(Refusal::DuplicateEdge);
+        }
+        convex.map(|()| plan)
+    }
+
+    /// The flip plan of the interior edge of `h` (records `eh` of `h` and `et` of its twin `t`,
+    /// faces `f1` and `f2`): topology only, nothing checked.
+    #[inline]
+    fn flip_quad(&self, h: HalfEdgeId, eh: HalfEdge, t: HalfEdgeId, et: HalfEdge, f1: FaceId, f2: FaceId) -> FlipPlan {
+        let h_bc = eh.next;
+        let h_ca = self.half_edges[h_bc].next;
+        let t_ad = et.next;
+        let t_db = self.half_edges[t_ad].next;
+        let c = self.half_edges[h_ca].origin;
+        let d = self.half_edges[t_db].origin;
+        FlipPlan { h, t, h_bc, h_ca, t_ad, t_db, a: eh.origin, b: et.origin, c, d, f1, f2 }
     }
 
     /// Applies a checked flip. Afterwards `h` runs d -> c and `twin(h)` c -> d.
+    #[inline]
     pub fn apply_flip(&mut self, p: FlipPlan) {
         let he = &mut self.half_edges;
-        he[p.h].origin = p.d;
-        he[p.h].next = p.h_ca;
+        let x = &mut he[p.h];
+        x.origin = p.d;
+        x.next = p.h_ca;
         he[p.h_ca].next = p.t_ad;
-        he[p.t_ad].next = p.h;
-        he[p.t_ad].face = Some(p.f1);
-        he[p.t].origin = p.c;
-        he[p.t].next = p.t_db;
+        let x = &mut he[p.t_ad];
+        x.next = p.h;
+        x.face = Some(p.f1);
+        let x = &mut he[p.t];
+        x.origin = p.c;
+        x.next = p.t_db;
         he[p.t_db].next = p.h_bc;
-        he[p.h_bc].next = p.t;
-        he[p.h_bc].face = Some(p.f2);
+        let x = &mut he[p.h_bc];
+        x.next = p.t;
+        x.face = Some(p.f2);
         self.faces[p.f1].half_edge = p.h;
         self.faces[p.f2].half_edge = p.t;
-        if self.vertices[p.a].out == p.h {
-            self.vertices[p.a].out = p.t_ad;
+        let va = &mut self.vertices[p.a];
+        if va.out == p.h {
+            va.out = p.t_ad;
         }
-        if self.vertices[p.b].out == p.t {
-            self.vertices[p.b].out = p.h_bc;
+        let vb = &mut self.vertices[p.b];
+        if vb.out == p.t {
+            vb.out = p.h_bc;
         }
     }
 
@@ -132,28 +153,18 @@ impl<P: MeshPoint> TriMesh<P> {
         Ok(())
     }
 
-    /// Flip with the preconditions only debug-checked: for loops that just evaluated them.
-    pub(crate) fn flip_unchecked(&mut self, h: HalfEdgeId) {
-        let t = self.twin(h);
-        let h_bc = self.next(h);
-        let h_ca = self.next(h_bc);
-        let t_ad = self.next(t);
-        let t_db = self.next(t_ad);
-        let plan = FlipPlan {
-            h,
-            t,
-            h_bc,
-            h_ca,
-            t_ad,
-            t_db,
-            a: self.origin(h),
-            b: self.origin(t),
-            c: self.origin(h_ca),
-            d: self.origin(t_db),
-            f1: self.face_of(h).expect("flip_unchecked on a boundary edge"),
-            f2: self.face_of(t).expect("flip_unchecked on a boundary edge"),
-        };
-        self.apply_flip(plan);
+    /// The flip plan of `h` when both sides are faces of the same label, else `None`: for
+    /// Lawson loops, which then decide by in-circle and orientation themselves.
+    #[inline]
+    pub(crate) fn interior_quad(&self, h: HalfEdgeId) -> Option<FlipPlan> {
+        let eh = self.half_edges[h];
+        let t = eh.twin;
+        let et = self.half_edges[t];
+        let (f1, f2) = (eh.face?, et.face?);
+        if self.faces[f1].label != self.faces[f2].label {
+            return None;
+        }
+        Some(self.flip_quad(h, eh, t, et, f1, f2))
     }
 
     // ===================== split =====================
@@ -510,50 +521,46 @@ impl<P: MeshPoint> TriMesh<P> {
     ///    a-------b
     /// ```
     pub fn apply_insert_in_face(&mut self, plan: InsertPlan<P>) -> VertexId {
+        self.insert_in_face_raw(plan).0
+    }
+
+    /// [`TriMesh::apply_insert_in_face`], also returning the three old edges of the face
+    /// (a -> b, b -> c, c -> a), now the link of the new vertex.
+    pub(crate) fn insert_in_face_raw(&mut self, plan: InsertPlan<P>) -> (VertexId, [HalfEdgeId; 3]) {
         let f = plan.f;
-        let [hab, hbc, hca] = self.face_half_edges(f);
-        let [a, b, c] = [self.origin(hab), self.origin(hbc), self.origin(hca)];
-        let label = self.faces[f].label;
+        let Face { half_edge: hab, label } = self.faces[f];
+        let hbc = self.half_edges[hab].next;
+        let e_bc = self.half_edges[hbc];
+        let hca = e_bc.next;
+        let a = self.half_edges[hab].origin;
+        let b = e_bc.origin;
+        let c = self.half_edges[hca].origin;
         let v = self.vertices.insert(Vertex { pos: plan.p, out: hab, tag: VertexTag::Interior });
         let f2 = self.faces.insert(Face { half_edge: hbc, label });
         let f3 = self.faces.insert(Face { half_edge: hca, label });
-        let dummy = HalfEdge { origin: v, twin: hab, next: hab, face: Some(f) };
-        let va = self.half_edges.insert(HalfEdge { origin: v, ..dummy });
-        let av = self.half_edges.insert(HalfEdge { origin: a, ..dummy });
-        let vb = self.half_edges.insert(HalfEdge { origin: v, ..dummy });
-        let bv = self.half_edges.insert(HalfEdge { origin: b, ..dummy });
-        let vc = self.half_edges.insert(HalfEdge { origin: v, ..dummy });
-        let cv = self.half_edges.insert(HalfEdge { origin: c, ..dummy });
+        // Inserted in the order va, av, vb, bv, vc, cv; the keys not known yet are patched after.
         let he = &mut self.half_edges;
+        let va = he.insert(HalfEdge { origin: v, twin: hab, next: hab, face: Some(f) });
+        let av = he.insert(HalfEdge { origin: a, twin: va, next: hab, face: Some(f3) });
+        let vb = he.insert(HalfEdge { origin: v, twin: hab, next: hbc, face: Some(f2) });
+        let bv = he.insert(HalfEdge { origin: b, twin: vb, next: va, face: Some(f) });
+        let vc = he.insert(HalfEdge { origin: v, twin: hab, next: hca, face: Some(f3) });
+        let cv = he.insert(HalfEdge { origin: c, twin: vc, next: vb, face: Some(f2) });
         he[va].twin = av;
-        he[av].twin = va;
+        let x = &mut he[av];
+        x.next = vc;
         he[vb].twin = bv;
-        he[bv].twin = vb;
         he[vc].twin = cv;
-        he[cv].twin = vc;
-        // (a, b, v)
+        // (a, b, v), (b, c, v), (c, a, v)
         he[hab].next = bv;
-        he[bv].next = va;
-        he[va].next = hab;
-        he[bv].face = Some(f);
-        he[va].face = Some(f);
-        // (b, c, v)
-        he[hbc].next = cv;
-        he[cv].next = vb;
-        he[vb].next = hbc;
-        he[hbc].face = Some(f2);
-        he[cv].face = Some(f2);
-        he[vb].face = Some(f2);
-        // (c, a, v)
-        he[hca].next = av;
-        he[av].next = vc;
-        he[vc].next = hca;
-        he[hca].face = Some(f3);
-        he[av].face = Some(f3);
-        he[vc].face = Some(f3);
-        self.faces[f].half_edge = hab;
+        let x = &mut he[hbc];
+        x.next = cv;
+        x.face = Some(f2);
+        let x = &mut he[hca];
+        x.next = av;
+        x.face = Some(f3);
         self.vertices[v].out = va;
-        v
+        (v, [hab, hbc, hca])
     }
 
     /// Inserts a vertex at `p` inside face `f` if allowed.

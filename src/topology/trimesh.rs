@@ -59,9 +59,16 @@ pub trait MeshPoint: Copy + PartialEq + std::fmt::Debug + Send + Sync + 'static 
     /// space have no global orientation: `Zero` when the triangle is exactly degenerate (its
     /// cross product vanishes), else `Positive`; surface meshers check folds with normals.
     fn orientation(a: Self, b: Self, c: Self) -> Sign;
+    /// Whether a flip must search the one-ring for an existing copy of the new edge. In a
+    /// valid planar triangulation the new diagonal of a strictly convex quad lies inside the
+    /// two old triangles, so it cannot exist yet and planar points skip the search (it still
+    /// runs when a flip is refused, to report [`super::Refusal::DuplicateEdge`] first, as
+    /// before). Points in space have no such guarantee and keep the search.
+    const NEEDS_DUPLICATE_EDGE_CHECK: bool = true;
 }
 
 impl MeshPoint for DVec2 {
+    const NEEDS_DUPLICATE_EDGE_CHECK: bool = false;
     #[inline]
     fn to_3d(self) -> DVec3 {
         self.extend(0.0)
@@ -375,7 +382,7 @@ impl<P: MeshPoint> TriMesh<P> {
         let mut h = start;
         loop {
             out.push(h);
-            h = self.next(self.twin(h));
+            h = self.half_edges[self.half_edges[h].twin].next;
             if h == start || out.len() > self.half_edges.len() {
                 break;
             }
@@ -400,10 +407,12 @@ impl<P: MeshPoint> TriMesh<P> {
         let mut h = start;
         let mut steps = 0;
         loop {
-            if self.dest(h) == b {
+            // One record per step: the twin holds both the destination and the next outgoing.
+            let t = &self.half_edges[self.half_edges[h].twin];
+            if t.origin == b {
                 return Some(h);
             }
-            h = self.next(self.twin(h));
+            h = t.next;
             steps += 1;
             if h == start || steps > self.half_edges.len() {
                 return None;
@@ -466,7 +475,10 @@ impl<P: MeshPoint> TriMesh<P> {
         for (ti, t) in triangles.iter().enumerate() {
             for &i in t {
                 if i >= points.len() {
-                    return Err(InvalidMesh(format!("triangle {ti} refers to point {i}, past the {} points", points.len())));
+                    return Err(InvalidMesh(format!(
+                        "triangle {ti} refers to point {i}, past the {} points",
+                        points.len()
+                    )));
                 }
                 used[i] = true;
             }
@@ -506,7 +518,8 @@ impl<P: MeshPoint> TriMesh<P> {
             if let Some(&t) = edge_map.get(&(b, a)) {
                 m.half_edges[h].twin = t;
             } else {
-                let t = m.half_edges.insert(HalfEdge { origin: ids[b], twin: h, next: HalfEdgeId::default(), face: None });
+                let t =
+                    m.half_edges.insert(HalfEdge { origin: ids[b], twin: h, next: HalfEdgeId::default(), face: None });
                 m.half_edges[h].twin = t;
                 boundary.push(t);
             }
@@ -545,7 +558,9 @@ impl<P: MeshPoint> TriMesh<P> {
         }
         for (i, &v) in ids.iter().enumerate() {
             if m.outgoing(v).len() != count[i] {
-                return Err(InvalidMesh(format!("point {i} is a non-manifold vertex (its triangles form several fans)")));
+                return Err(InvalidMesh(format!(
+                    "point {i} is a non-manifold vertex (its triangles form several fans)"
+                )));
             }
         }
         Ok((m, ids))
