@@ -8,11 +8,7 @@ use trussmesh::geometry::Circle;
 use trussmesh::mesher::{mesh_2d, size_deviation, Options2, Strategy};
 
 fn main() {
-    let max: f64 = std::env::args()
-        .skip_while(|a| a != "--max")
-        .nth(1)
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1.1e6);
+    let max: f64 = std::env::args().skip_while(|a| a != "--max").nth(1).and_then(|s| s.parse().ok()).unwrap_or(1.1e6);
     let disk = Circle::new([0.0, 0.0], 1.0);
     println!("machine: {} threads (rayon)", rayon::current_num_threads());
     println!();

@@ -40,15 +40,7 @@ fn limiter(c: &mut Criterion) {
                 b.iter_batched(
                     || h0.clone(),
                     |mut h| {
-                        gradient_limit_hj_2d(
-                            &mut h,
-                            (n, n),
-                            dx,
-                            &Slope::Constant(0.3),
-                            1e-2,
-                            1 << 20,
-                        )
-                        .unwrap();
+                        gradient_limit_hj_2d(&mut h, (n, n), dx, &Slope::Constant(0.3), 1e-2, 1 << 20).unwrap();
                         h
                     },
                     BatchSize::LargeInput,
@@ -67,9 +59,7 @@ fn marching(c: &mut Criterion) {
     let mut g = c.benchmark_group("size/fast_marching");
     g.sample_size(10);
     g.throughput(Throughput::Elements((n * n) as u64));
-    g.bench_function("reinitialise circle 1000x1000", |b| {
-        b.iter(|| reinitialize_2d(&grid))
-    });
+    g.bench_function("reinitialise circle 1000x1000", |b| b.iter(|| reinitialize_2d(&grid)));
     g.finish();
 }
 

@@ -25,10 +25,7 @@ fn flip_pairs(m: &mut TetMesh, tets: &[TetId]) -> usize {
             let Ok(made) = m.flip23(t, i) else { continue };
             let s = made[0];
             let (a, b) = (m.local_index(s, d).unwrap(), m.local_index(s, e).unwrap());
-            let k = EDGE_VERTICES
-                .iter()
-                .position(|&[x, y]| (x == a && y == b) || (x == b && y == a))
-                .unwrap();
+            let k = EDGE_VERTICES.iter().position(|&[x, y]| (x == a && y == b) || (x == b && y == a)).unwrap();
             m.flip32(s, k).expect("a 2-3 flip can be undone");
             n += 2;
         }
@@ -52,26 +49,16 @@ fn ops(c: &mut Criterion) {
     let (base, _) = TetMesh::delaunay(&random_points_3d(20_000, SEED)).unwrap();
     let tets: Vec<TetId> = base.tet_ids().collect();
     let mut g = c.benchmark_group("tet_engine");
-    g.sample_size(10)
-        .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(4));
+    g.sample_size(10).warm_up_time(Duration::from_secs(1)).measurement_time(Duration::from_secs(4));
     let flips = flip_pairs(&mut base.clone(), &tets);
     g.throughput(Throughput::Elements(flips as u64));
     g.bench_function("2-3 + 3-2 flips (checked, exact)", |b| {
-        b.iter_batched(
-            || base.clone(),
-            |mut m| flip_pairs(&mut m, &tets),
-            BatchSize::LargeInput,
-        )
+        b.iter_batched(|| base.clone(), |mut m| flip_pairs(&mut m, &tets), BatchSize::LargeInput)
     });
     let removed = removals(&mut base.clone(), &tets);
     g.throughput(Throughput::Elements(removed as u64));
     g.bench_function("edge removal (checked, DP, exact)", |b| {
-        b.iter_batched(
-            || base.clone(),
-            |mut m| removals(&mut m, &tets),
-            BatchSize::LargeInput,
-        )
+        b.iter_batched(|| base.clone(), |mut m| removals(&mut m, &tets), BatchSize::LargeInput)
     });
     g.finish();
     println!("(flips per iteration {flips}, edge removals per iteration {removed})");
@@ -79,15 +66,11 @@ fn ops(c: &mut Criterion) {
 
 fn delaunay(c: &mut Criterion) {
     let mut g = c.benchmark_group("tet_delaunay");
-    g.sample_size(10)
-        .warm_up_time(Duration::from_secs(1))
-        .measurement_time(Duration::from_secs(10));
+    g.sample_size(10).warm_up_time(Duration::from_secs(1)).measurement_time(Duration::from_secs(10));
     let n = 100_000;
     let pts = random_points_3d(n, SEED);
     g.throughput(Throughput::Elements(n as u64));
-    g.bench_function(format!("incremental flips {n}"), |b| {
-        b.iter(|| TetMesh::delaunay(&pts).unwrap().0.num_tets())
-    });
+    g.bench_function(format!("incremental flips {n}"), |b| b.iter(|| TetMesh::delaunay(&pts).unwrap().0.num_tets()));
     g.finish();
 }
 
@@ -109,7 +92,5 @@ criterion_group!(benches, ops, delaunay);
 fn main() {
     benches();
     delaunay_1e6_once();
-    criterion::Criterion::default()
-        .configure_from_args()
-        .final_summary();
+    criterion::Criterion::default().configure_from_args().final_summary();
 }

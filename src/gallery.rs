@@ -179,10 +179,7 @@ impl Example {
 
     /// The shell command docs/cli.md shows: writes out/NAME.vtu and out/NAME.svg.
     pub fn command_line(&self) -> String {
-        let outs = [
-            format!("out/{}.vtu", self.name),
-            format!("out/{}.svg", self.name),
-        ];
+        let outs = [format!("out/{}.vtu", self.name), format!("out/{}.svg", self.name)];
         let mut s = String::from("trussmesh");
         for a in self.args(&outs) {
             s.push(' ');
@@ -194,9 +191,7 @@ impl Example {
 
 /// Single-quotes a word when the shell would otherwise change it.
 fn shell_quote(w: &str) -> String {
-    let plain = !w.is_empty()
-        && w.chars()
-            .all(|c| c.is_ascii_alphanumeric() || "-_./,=".contains(c));
+    let plain = !w.is_empty() && w.chars().all(|c| c.is_ascii_alphanumeric() || "-_./,=".contains(c));
     if plain {
         w.to_string()
     } else {

@@ -40,11 +40,7 @@ fn c2(p: DVec2) -> robust::Coord<f64> {
 }
 #[inline]
 fn c3(p: DVec3) -> robust::Coord3D<f64> {
-    robust::Coord3D {
-        x: p.x,
-        y: p.y,
-        z: p.z,
-    }
+    robust::Coord3D { x: p.x, y: p.y, z: p.z }
 }
 
 /// Positive when a, b, c turn counter-clockwise; zero when collinear.

@@ -17,21 +17,13 @@ pub fn triangle_q_from_lengths(a: f64, b: f64, c: f64) -> f64 {
 /// [`triangle_q_from_lengths`] of a planar triangle.
 #[inline]
 pub fn triangle_q(p: [DVec2; 3]) -> f64 {
-    triangle_q_from_lengths(
-        p[1].distance(p[2]),
-        p[2].distance(p[0]),
-        p[0].distance(p[1]),
-    )
+    triangle_q_from_lengths(p[1].distance(p[2]), p[2].distance(p[0]), p[0].distance(p[1]))
 }
 
 /// [`triangle_q_from_lengths`] of a triangle in space.
 #[inline]
 pub fn triangle_q3(p: [DVec3; 3]) -> f64 {
-    triangle_q_from_lengths(
-        p[1].distance(p[2]),
-        p[2].distance(p[0]),
-        p[0].distance(p[1]),
-    )
+    triangle_q_from_lengths(p[1].distance(p[2]), p[2].distance(p[0]), p[0].distance(p[1]))
 }
 
 /// Signed area of a planar triangle (positive counter-clockwise).
@@ -73,18 +65,13 @@ pub fn tet_radius_ratio(p: [DVec3; 4]) -> f64 {
         return 0.0;
     }
     let face = |a: DVec3, b: DVec3, c: DVec3| 0.5 * (b - a).cross(c - a).length();
-    let area = face(p[1], p[2], p[3])
-        + face(p[0], p[2], p[3])
-        + face(p[0], p[1], p[3])
-        + face(p[0], p[1], p[2]);
+    let area = face(p[1], p[2], p[3]) + face(p[0], p[2], p[3]) + face(p[0], p[1], p[3]) + face(p[0], p[1], p[2]);
     let r_in = 3.0 * vol / area;
     // Circumradius: |a|^2 (b x c) + |b|^2 (c x a) + |c|^2 (a x b) over 12 V, relative to p0.
     let a = p[1] - p[0];
     let b = p[2] - p[0];
     let c = p[3] - p[0];
-    let num = a.length_squared() * b.cross(c)
-        + b.length_squared() * c.cross(a)
-        + c.length_squared() * a.cross(b);
+    let num = a.length_squared() * b.cross(c) + b.length_squared() * c.cross(a) + c.length_squared() * a.cross(b);
     let r_out = num.length() / (12.0 * vol);
     (3.0 * r_in / r_out).clamp(0.0, 1.0)
 }
@@ -92,14 +79,8 @@ pub fn tet_radius_ratio(p: [DVec3; 4]) -> f64 {
 /// The six dihedral angles of a tetrahedron in degrees, at edges 01, 02, 03, 12, 13, 23.
 pub fn tet_dihedral_angles_deg(p: [DVec3; 4]) -> [f64; 6] {
     // The dihedral at edge (i, j) is between the faces that contain i, j and k, and i, j and l.
-    const EDGES: [(usize, usize, usize, usize); 6] = [
-        (0, 1, 2, 3),
-        (0, 2, 1, 3),
-        (0, 3, 1, 2),
-        (1, 2, 0, 3),
-        (1, 3, 0, 2),
-        (2, 3, 0, 1),
-    ];
+    const EDGES: [(usize, usize, usize, usize); 6] =
+        [(0, 1, 2, 3), (0, 2, 1, 3), (0, 3, 1, 2), (1, 2, 0, 3), (1, 3, 0, 2), (2, 3, 0, 1)];
     let mut out = [0.0; 6];
     for (n, &(i, j, k, l)) in EDGES.iter().enumerate() {
         let e = (p[j] - p[i]).normalize_or_zero();
@@ -108,11 +89,7 @@ pub fn tet_dihedral_angles_deg(p: [DVec3; 4]) -> [f64; 6] {
         let u = u - e * u.dot(e);
         let w = w - e * w.dot(e);
         let cos = (u.dot(w) / (u.length() * w.length())).clamp(-1.0, 1.0);
-        out[n] = if cos.is_finite() {
-            cos.acos().to_degrees()
-        } else {
-            0.0
-        };
+        out[n] = if cos.is_finite() { cos.acos().to_degrees() } else { 0.0 };
     }
     out
 }
@@ -123,11 +100,7 @@ mod tests {
 
     #[test]
     fn equilateral_is_one() {
-        let t = [
-            DVec2::new(0.0, 0.0),
-            DVec2::new(1.0, 0.0),
-            DVec2::new(0.5, 3f64.sqrt() / 2.0),
-        ];
+        let t = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.5, 3f64.sqrt() / 2.0)];
         assert!((triangle_q(t) - 1.0).abs() < 1e-12);
         let ang = triangle_angles_deg(1.0, 1.0, 1.0);
         assert!(ang.iter().all(|a| (a - 60.0).abs() < 1e-9));

@@ -217,7 +217,8 @@ pub fn random_points_3d(n: usize, seed: u64) -> Vec<DVec3> {
 
 /// One positive tetrahedron.
 pub fn single_tet() -> TetMesh {
-    let p = [DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.1, 0.0), DVec3::new(0.2, 0.9, 0.1), DVec3::new(0.3, 0.2, 0.8)];
+    let p =
+        [DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.1, 0.0), DVec3::new(0.2, 0.9, 0.1), DVec3::new(0.3, 0.2, 0.8)];
     TetMesh::from_arrays(&p, &[[0, 1, 2, 3]]).expect("valid").0
 }
 

@@ -4,9 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn tmp(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("cli")
-        .join(name);
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli").join(name);
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
@@ -77,8 +75,7 @@ fn shell_words(line: &str) -> Vec<String> {
 
 /// The fenced blocks of docs/cli.md in language `lang`.
 fn doc_blocks(lang: &str) -> Vec<String> {
-    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/cli.md"))
-        .expect("docs/cli.md");
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/cli.md")).expect("docs/cli.md");
     let mut blocks = Vec::new();
     let mut cur: Option<String> = None;
     for line in text.lines() {
@@ -109,12 +106,7 @@ fn doc_blocks(lang: &str) -> Vec<String> {
 fn doc_mesh_commands() -> Vec<String> {
     doc_blocks("sh")
         .iter()
-        .flat_map(|b| {
-            b.lines()
-                .map(str::trim)
-                .map(String::from)
-                .collect::<Vec<_>>()
-        })
+        .flat_map(|b| b.lines().map(str::trim).map(String::from).collect::<Vec<_>>())
         .filter(|l| l.starts_with("trussmesh mesh"))
         .collect()
 }
@@ -132,10 +124,7 @@ fn docs_list_every_gallery_example() {
     let listed: Vec<&str> = out.lines().collect();
     assert!(listed.len() >= 12, "{out}");
     for l in &listed {
-        assert!(
-            docs.iter().any(|d| d == l),
-            "docs/cli.md lacks the command\n{l}"
-        );
+        assert!(docs.iter().any(|d| d == l), "docs/cli.md lacks the command\n{l}");
     }
 }
 
@@ -165,14 +154,10 @@ fn docs_commands_run() {
             failures.push(format!("exit {code}: {line}\n{err}"));
             continue;
         }
-        let mut outputs: Vec<String> = args
-            .windows(2)
-            .filter(|w| w[0] == "-o" || w[0] == "--output")
-            .map(|w| w[1].to_string())
-            .collect();
+        let mut outputs: Vec<String> =
+            args.windows(2).filter(|w| w[0] == "-o" || w[0] == "--output").map(|w| w[1].to_string()).collect();
         if let Some(scene) = args.iter().find(|a| a.ends_with(".toml")) {
-            let t: toml::Table =
-                toml::from_str(&std::fs::read_to_string(dir.join(scene)).unwrap()).unwrap();
+            let t: toml::Table = toml::from_str(&std::fs::read_to_string(dir.join(scene)).unwrap()).unwrap();
             for o in t["output"].as_array().unwrap() {
                 outputs.push(o.as_str().unwrap().to_string());
             }
@@ -182,8 +167,7 @@ fn docs_commands_run() {
             let p = dir.join(&o);
             assert!(p.exists(), "{line}: {o} was not written");
             if is_mesh_file(&o) {
-                let m = trussmesh::io::read_mesh(&p)
-                    .unwrap_or_else(|e| panic!("{line}: reading {o} back: {e}"));
+                let m = trussmesh::io::read_mesh(&p).unwrap_or_else(|e| panic!("{line}: reading {o} back: {e}"));
                 assert!(m.num_cells() > 0, "{line}: {o} has no cells");
             }
         }
@@ -231,10 +215,7 @@ fn malformed_expression_names_the_column() {
 
 #[test]
 fn unknown_function() {
-    bad(
-        &mesh_args("sqr(x)-1", &SQ),
-        &["unknown function 'sqr'", "column 1"],
-    );
+    bad(&mesh_args("sqr(x)-1", &SQ), &["unknown function 'sqr'", "column 1"]);
 }
 
 #[test]
@@ -255,56 +236,19 @@ fn negative_h0() {
 
 #[test]
 fn other_bad_mesh_input() {
-    let a = mesh_args(
-        "x",
-        &["--dim", "3", "--h0", "0.1", "--bbox", "-1,-1,-1,1,1,1"],
-    );
+    let a = mesh_args("x", &["--dim", "3", "--h0", "0.1", "--bbox", "-1,-1,-1,1,1,1"]);
     bad(&a, &["3-D meshing is not available yet"]);
-    let a = mesh_args(
-        "x",
-        &["--h0", "0.1", "--bbox", "-1,-1,1,1", "--fix", "0,0,0"],
-    );
+    let a = mesh_args("x", &["--h0", "0.1", "--bbox", "-1,-1,1,1", "--fix", "0,0,0"]);
     bad(&a, &["fixed point 1 has 3 coordinates"]);
-    let a = [
-        "mesh",
-        "--domain",
-        "x",
-        "--h0",
-        "0.1",
-        "--bbox",
-        "-1,-1,1,1",
-        "-o",
-        "a.txt",
-    ];
+    let a = ["mesh", "--domain", "x", "--h0", "0.1", "--bbox", "-1,-1,1,1", "-o", "a.txt"];
     bad(&a, &["unknown output extension"]);
-    let a = [
-        "mesh",
-        "--domain",
-        "x",
-        "--h0",
-        "x",
-        "--bbox",
-        "-1,-1,1,1",
-        "-o",
-        "a.vtu",
-    ];
+    let a = ["mesh", "--domain", "x", "--h0", "x", "--bbox", "-1,-1,1,1", "-o", "a.vtu"];
     bad(&a, &["must be a constant"]);
-    let a = [
-        "mesh",
-        "--domain",
-        "x",
-        "--h0",
-        "0.1",
-        "--bbox",
-        "-1,-1,1,1",
-    ];
+    let a = ["mesh", "--domain", "x", "--h0", "0.1", "--bbox", "-1,-1,1,1"];
     bad(&a, &["no output file"]);
     let dir = tmp("scene");
-    std::fs::write(
-        dir.join("s.toml"),
-        "domain = \"x\"\nh0 = -2\nbbox = [-1, -1, 1, 1]\noutput = [\"a.vtu\"]\n",
-    )
-    .unwrap();
+    std::fs::write(dir.join("s.toml"), "domain = \"x\"\nh0 = -2\nbbox = [-1, -1, 1, 1]\noutput = [\"a.vtu\"]\n")
+        .unwrap();
     bad_in(&dir, &["mesh", "s.toml"], &["h0 must be positive"]);
     std::fs::write(dir.join("t.toml"), "domain = \"x\"\nh = 1\n").unwrap();
     bad_in(&dir, &["mesh", "t.toml"], &["bad scene file", "t.toml"]);
@@ -328,12 +272,7 @@ fn square() -> trussmesh::io::MeshData {
     trussmesh::io::MeshData {
         dim: 2,
         cell_type: trussmesh::io::CellType::Triangle,
-        points: vec![
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [1.0, 1.0, 0.0],
-            [0.0, 1.0, 0.0],
-        ],
+        points: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
         cells: vec![0, 1, 2, 0, 2, 3],
         subdomain: None,
     }
@@ -349,26 +288,11 @@ fn stats_numbers_of_a_hand_made_mesh() {
             "cells": [[0, 1, 2], [0, 2, 3], [1, 4, 2]]}"#,
     )
     .unwrap();
-    let (code, out, err) = run(
-        &dir,
-        &[
-            "stats",
-            "sq.json",
-            "--json",
-            "--domain",
-            "sqrt(x^2+y^2)-1",
-            "--size",
-            "1+x",
-        ],
-    );
+    let (code, out, err) = run(&dir, &["stats", "sq.json", "--json", "--domain", "sqrt(x^2+y^2)-1", "--size", "1+x"]);
     assert_eq!(code, 0, "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     let f = |k: &str| v[k].as_f64().unwrap_or_else(|| panic!("{k} in {out}"));
-    let t = |k: &str| {
-        v["triangles"][k]
-            .as_f64()
-            .unwrap_or_else(|| panic!("{k} in {out}"))
-    };
+    let t = |k: &str| v["triangles"][k].as_f64().unwrap_or_else(|| panic!("{k} in {out}"));
     assert_eq!(v["nodes"], 5);
     assert_eq!(v["cells"], 3);
     assert_eq!(v["boundary_facets"], 5);
@@ -386,11 +310,7 @@ fn stats_numbers_of_a_hand_made_mesh() {
     assert!((f("boundary_max_abs_d") - (4.25f64.sqrt() - 1.0)).abs() < 1e-12);
     // Circumradius / h(centroid), circumradius = abc / (4 area).
     let r3 = a * b * c / (4.0 * 0.5);
-    let rs = [
-        2f64.sqrt() / 2.0 / (1.0 + 2.0 / 3.0),
-        2f64.sqrt() / 2.0 / (1.0 + 1.0 / 3.0),
-        r3 / (1.0 + 4.0 / 3.0),
-    ];
+    let rs = [2f64.sqrt() / 2.0 / (1.0 + 2.0 / 3.0), 2f64.sqrt() / 2.0 / (1.0 + 1.0 / 3.0), r3 / (1.0 + 4.0 / 3.0)];
     let mean = rs.iter().sum::<f64>() / 3.0;
     let std = (rs.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / 3.0).sqrt();
     assert!((f("size_deviation") - std / mean).abs() < 1e-12, "{out}");

@@ -8,9 +8,7 @@ use trussmesh::expr::{fuzz_parse, Expr, ExprError, ExprImplicit2, ExprImplicit3}
 use trussmesh::geometry::{Implicit2, Implicit3};
 
 fn ev(src: &str, x: f64, y: f64, z: f64) -> f64 {
-    Expr::parse(src)
-        .unwrap_or_else(|e| panic!("{src}: {e}"))
-        .eval(x, y, z)
+    Expr::parse(src).unwrap_or_else(|e| panic!("{src}: {e}")).eval(x, y, z)
 }
 
 fn close(a: f64, b: f64, tol: f64) -> bool {
@@ -69,10 +67,7 @@ fn precedence_and_associativity() {
         ("1 - -1", 2.0),
         ("2^3*2", 16.0),
         ("2*3^2", 18.0),
-        (
-            "1.5 + .5 + 1e-3 + 2.5E+2 + 3e2 + 4.",
-            1.5 + 0.5 + 1e-3 + 250.0 + 300.0 + 4.0,
-        ),
+        ("1.5 + .5 + 1e-3 + 2.5E+2 + 3e2 + 4.", 1.5 + 0.5 + 1e-3 + 250.0 + 300.0 + 4.0),
         ("pi", PI),
         ("e", E),
         ("2*pi*e", 2.0 * PI * E),
@@ -122,18 +117,11 @@ fn functions_match_std() {
     }
     let mut rng = Rng(7);
     for _ in 0..50 {
-        let (x, y, z) = (
-            rng.range(-3.0, 3.0),
-            rng.range(-3.0, 3.0),
-            rng.range(-3.0, 3.0),
-        );
+        let (x, y, z) = (rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), rng.range(-3.0, 3.0));
         let (a, b) = (rng.range(0.1, 3.0), rng.range(-2.0, 2.0));
         let chk = |s: &str, want: f64| {
             let got = ev(s, x, y, z);
-            assert!(
-                close(got, want, 1e-13),
-                "{s} at ({x},{y},{z}): {got} vs {want}"
-            );
+            assert!(close(got, want, 1e-13), "{s} at ({x},{y},{z}): {got} vs {want}");
         };
         chk("pow(x, y)", x.powf(y));
         chk(&format!("pow({a}, y)"), a.powf(y));
@@ -146,27 +134,16 @@ fn functions_match_std() {
         chk("dunion(x, y, z)", x.min(y).min(z));
         chk("dintersect(x, y, z)", x.max(y).max(z));
         chk("ddiff(x, y)", x.max(-y));
-        chk(
-            &format!("dcircle(x, y, {a}, {b}, 0.7)"),
-            ((x - a).powi(2) + (y - b).powi(2)).sqrt() - 0.7,
-        );
+        chk(&format!("dcircle(x, y, {a}, {b}, 0.7)"), ((x - a).powi(2) + (y - b).powi(2)).sqrt() - 0.7);
         chk(
             &format!("dsphere(x, y, z, {a}, {b}, 0.25, 1.5)"),
             ((x - a).powi(2) + (y - b).powi(2) + (z - 0.25).powi(2)).sqrt() - 1.5,
         );
         let (x1, x2, y1, y2, z1, z2) = (-1.0, a, b - 1.0, b + 0.5, -0.5, 2.0);
-        chk(
-            &format!("drectangle(x, y, {x1}, {x2}, {y1}, {y2})"),
-            -(-y1 + y).min(y2 - y).min(-x1 + x).min(x2 - x),
-        );
+        chk(&format!("drectangle(x, y, {x1}, {x2}, {y1}, {y2})"), -(-y1 + y).min(y2 - y).min(-x1 + x).min(x2 - x));
         chk(
             &format!("dbox(x, y, z, {x1}, {x2}, {y1}, {y2}, {z1}, {z2})"),
-            -(-z1 + z)
-                .min(z2 - z)
-                .min(-y1 + y)
-                .min(y2 - y)
-                .min(-x1 + x)
-                .min(x2 - x),
+            -(-z1 + z).min(z2 - z).min(-y1 + y).min(y2 - y).min(-x1 + x).min(x2 - x),
         );
     }
 }
@@ -201,10 +178,7 @@ fn dpoly_known_distances() {
     ];
     for ((x, y), want) in cases {
         let got = sq.eval(x, y, 0.0);
-        assert!(
-            close(got, want, 1e-14),
-            "square at ({x},{y}): {got} vs {want}"
-        );
+        assert!(close(got, want, 1e-14), "square at ({x},{y}): {got} vs {want}");
     }
     // Clockwise order gives the same distances.
     let cw = Expr::parse("dpoly(x, y, 0,0, 0,1, 1,1, 1,0)").unwrap();
@@ -223,10 +197,7 @@ fn dpoly_known_distances() {
     ];
     for ((x, y), want) in cases {
         let got = hx.eval(x, y, 0.0);
-        assert!(
-            close(got, want, 1e-12),
-            "hexagon at ({x},{y}): {got} vs {want}"
-        );
+        assert!(close(got, want, 1e-12), "hexagon at ({x},{y}): {got} vs {want}");
     }
     // Inside a regular hexagon the distance is the apothem minus the projection on the
     // nearest edge normal.
@@ -334,10 +305,7 @@ fn metadata_and_wrappers() {
     assert!(!g2.is_distance());
     assert_eq!(g2.value(DVec2::new(2.0, 0.0)), 1.0);
     assert_eq!(g2.gradient(DVec2::new(0.0, 3.0)), DVec2::new(0.0, 1.0));
-    let g2 = ExprImplicit2 {
-        distance: true,
-        ..g2
-    };
+    let g2 = ExprImplicit2 { distance: true, ..g2 };
     assert!(g2.is_distance());
     let g3 = ExprImplicit3::new(Expr::parse("dsphere(x, y, z, 0, 0, 0, 1)").unwrap());
     assert_eq!(g3.value(DVec3::new(0.0, 0.0, 3.0)), 2.0);
@@ -386,11 +354,7 @@ fn error_columns_and_messages() {
         ("x # y", 3, "unexpected character '#'"),
         ("2 +", 4, "unexpected end of input"),
         ("3 * )", 5, "unexpected ')'"),
-        (
-            "min(x y)",
-            7,
-            "expected ',' or ')' in the arguments of 'min'",
-        ),
+        ("min(x y)", 7, "expected ',' or ')' in the arguments of 'min'"),
         ("max(x,)", 7, "unexpected ')'"),
         ("()", 2, "unexpected ')'"),
     ];
@@ -457,9 +421,8 @@ fn fuzz_entry_handles_junk() {
     let alphabet = b"xyz0123456789.e+-*/^(),  sqrtminaxdpolycrle";
     for _ in 0..3000 {
         let n = (rng.next() * 40.0) as usize;
-        let s: Vec<u8> = (0..n)
-            .map(|_| alphabet[(rng.next() * alphabet.len() as f64) as usize % alphabet.len()])
-            .collect();
+        let s: Vec<u8> =
+            (0..n).map(|_| alphabet[(rng.next() * alphabet.len() as f64) as usize % alphabet.len()]).collect();
         fuzz_parse(&s);
     }
 }

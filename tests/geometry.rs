@@ -3,8 +3,8 @@
 use glam::{DMat3, DVec2, DVec3};
 use std::f64::consts::TAU;
 use trussmesh::geometry::{
-    difference, project2, project3, union, Ball, Box3, Circle, Cylinder, Ellipse, Grid2, Implicit2,
-    Implicit2Ext, Implicit3, Polygon, ProjectError, Projection, Rectangle,
+    difference, project2, project3, union, Ball, Box3, Circle, Cylinder, Ellipse, Grid2, Implicit2, Implicit2Ext,
+    Implicit3, Polygon, ProjectError, Projection, Rectangle,
 };
 
 const TOL: f64 = 1e-12;
@@ -19,10 +19,7 @@ impl Implicit2 for Sine {
         DVec2::new(-TAU * (TAU * p.x).cos(), 1.0)
     }
     fn hessian(&self, p: DVec2) -> Option<glam::DMat2> {
-        Some(glam::DMat2::from_cols(
-            DVec2::new(TAU * TAU * (TAU * p.x).sin(), 0.0),
-            DVec2::ZERO,
-        ))
+        Some(glam::DMat2::from_cols(DVec2::new(TAU * TAU * (TAU * p.x).sin(), 0.0), DVec2::ZERO))
     }
     fn is_distance(&self) -> bool {
         false
@@ -54,9 +51,7 @@ fn primitive_distances_are_negative_inside() {
     let r = Rectangle::new([0.0, 0.0], [2.0, 1.0]);
     assert!((r.value(DVec2::new(1.0, 0.5)) + 0.5).abs() < 1e-15);
     assert!((r.value(DVec2::new(5.0, 5.0)) - 5.0).abs() < 1e-14);
-    assert!(
-        (Rectangle::cheap([0.0, 0.0], [2.0, 1.0]).value(DVec2::new(5.0, 5.0)) - 4.0).abs() < 1e-14
-    );
+    assert!((Rectangle::cheap([0.0, 0.0], [2.0, 1.0]).value(DVec2::new(5.0, 5.0)) - 4.0).abs() < 1e-14);
     let b = Ball::new([0.0; 3], 2.0);
     assert_eq!(b.value(DVec3::new(0.0, 0.0, 1.0)), -1.0);
     let x = Box3::new([0.0; 3], [1.0; 3]);
@@ -77,16 +72,8 @@ fn cylinder_rims_use_exact_corners() {
 #[test]
 fn polygon_sign_nonconvex() {
     // A "U": the slot between the arms is outside.
-    let u = Polygon::new([
-        [0.0, 0.0],
-        [3.0, 0.0],
-        [3.0, 3.0],
-        [2.0, 3.0],
-        [2.0, 1.0],
-        [1.0, 1.0],
-        [1.0, 3.0],
-        [0.0, 3.0],
-    ]);
+    let u =
+        Polygon::new([[0.0, 0.0], [3.0, 0.0], [3.0, 3.0], [2.0, 3.0], [2.0, 1.0], [1.0, 1.0], [1.0, 3.0], [0.0, 3.0]]);
     assert!((u.value(DVec2::new(1.5, 2.0)) - 0.5).abs() < 1e-15);
     assert!((u.value(DVec2::new(0.5, 2.0)) + 0.5).abs() < 1e-15);
     assert!((u.value(DVec2::new(1.5, 0.5)) + 0.5).abs() < 1e-15);
@@ -96,16 +83,9 @@ fn polygon_sign_nonconvex() {
 #[test]
 fn csg_and_transforms_compose() {
     // Seed example 3a: square with a hole; the builder and the free functions agree.
-    let a = difference(
-        Rectangle::cheap([-1.0, -1.0], [1.0, 1.0]),
-        Circle::new([0.0, 0.0], 0.4),
-    );
+    let a = difference(Rectangle::cheap([-1.0, -1.0], [1.0, 1.0]), Circle::new([0.0, 0.0], 0.4));
     let b = Rectangle::cheap([-1.0, -1.0], [1.0, 1.0]).difference(Circle::new([0.0, 0.0], 0.4));
-    for p in [
-        DVec2::new(0.1, 0.1),
-        DVec2::new(0.9, 0.0),
-        DVec2::new(2.0, 0.3),
-    ] {
+    for p in [DVec2::new(0.1, 0.1), DVec2::new(0.9, 0.0), DVec2::new(2.0, 0.3)] {
         assert_eq!(a.value(p), b.value(p));
     }
     assert!((a.value(DVec2::new(0.1, 0.0)) - 0.3).abs() < 1e-15);
@@ -135,18 +115,9 @@ fn grid_circle_projects_onto_its_zero_set() {
 fn every_projection_lands_on_circle_and_ellipse() {
     let c = Circle::new([0.0, 0.0], 1.0);
     let e = Ellipse::new([0.0, 0.0], 2.0, 1.0);
-    let all = [
-        Projection::Auto,
-        Projection::Exact,
-        Projection::FirstOrder,
-        Projection::SecondOrder,
-        Projection::Newton,
-    ];
-    for p in [
-        DVec2::new(1.9, -1.3),
-        DVec2::new(0.2, 0.1),
-        DVec2::new(-0.5, 4.0),
-    ] {
+    let all =
+        [Projection::Auto, Projection::Exact, Projection::FirstOrder, Projection::SecondOrder, Projection::Newton];
+    for p in [DVec2::new(1.9, -1.3), DVec2::new(0.2, 0.1), DVec2::new(-0.5, 4.0)] {
         for m in all {
             let q = project2(&c, p, m, TOL, 50).unwrap();
             assert!(c.value(q).abs() < 1e-10, "{m:?} circle from {p}");
@@ -171,20 +142,13 @@ fn seed_figure_3_2_second_order_and_newton_beat_first_order() {
     }
     // The true closest point by a fine search and a 1-D Newton polish.
     let f = |x: f64| (DVec2::new(x, (TAU * x).sin()) - p).length_squared();
-    let mut x = (0..200_001)
-        .map(|k| 0.13 + 0.2 * k as f64 / 200_000.0)
-        .min_by(|a, b| f(*a).total_cmp(&f(*b)))
-        .unwrap();
+    let mut x = (0..200_001).map(|k| 0.13 + 0.2 * k as f64 / 200_000.0).min_by(|a, b| f(*a).total_cmp(&f(*b))).unwrap();
     for _ in 0..20 {
         let h = 1e-5;
         x -= (f(x + h) - f(x - h)) / (2.0 * h) / ((f(x + h) - 2.0 * f(x) + f(x - h)) / (h * h));
     }
     let truth = DVec2::new(x, (TAU * x).sin());
-    let (e1, e2, en) = (
-        (q1 - truth).length(),
-        (q2 - truth).length(),
-        (qn - truth).length(),
-    );
+    let (e1, e2, en) = ((q1 - truth).length(), (q2 - truth).length(), (qn - truth).length());
     assert!(e2 < e1, "second order {e2}, first order {e1}");
     assert!(en < e1 && en < 1e-8, "newton {en}, first order {e1}");
     assert!((p - qn).perp_dot(Sine.gradient(qn).normalize()).abs() < 1e-8);
@@ -193,11 +157,7 @@ fn seed_figure_3_2_second_order_and_newton_beat_first_order() {
 #[test]
 fn projections_in_3d() {
     let p = DVec3::new(1.2, 0.9, -0.6);
-    for m in [
-        Projection::FirstOrder,
-        Projection::SecondOrder,
-        Projection::Newton,
-    ] {
+    for m in [Projection::FirstOrder, Projection::SecondOrder, Projection::Newton] {
         let q = project3(&Ellipsoid, p, m, TOL, 100).unwrap();
         assert!(Ellipsoid.value(q).abs() < 1e-10, "{m:?}");
     }
@@ -216,40 +176,17 @@ fn bad_functions_give_errors_not_panics() {
     let r = project2(&nan, DVec2::ZERO, Projection::Auto, TOL, 10);
     assert!(matches!(r, Err(ProjectError::NonFinite { value }) if value.is_nan()));
     let flat = |_: DVec2| 2.0;
-    for m in [
-        Projection::Auto,
-        Projection::Exact,
-        Projection::FirstOrder,
-        Projection::SecondOrder,
-        Projection::Newton,
-    ] {
-        assert_eq!(
-            project2(&flat, DVec2::ZERO, m, TOL, 10),
-            Err(ProjectError::ZeroGradient)
-        );
+    for m in [Projection::Auto, Projection::Exact, Projection::FirstOrder, Projection::SecondOrder, Projection::Newton]
+    {
+        assert_eq!(project2(&flat, DVec2::ZERO, m, TOL, 10), Err(ProjectError::ZeroGradient));
     }
     let flat3 = |_: DVec3| -1.0;
-    assert_eq!(
-        project3(&flat3, DVec3::ONE, Projection::Newton, TOL, 10),
-        Err(ProjectError::ZeroGradient)
-    );
+    assert_eq!(project3(&flat3, DVec3::ONE, Projection::Newton, TOL, 10), Err(ProjectError::ZeroGradient));
     // No zero set at all: x^2 + 1 never vanishes; the cap ends the search.
     let never = Ellipse::new([0.0, 0.0], 1.0, 1.0);
     let lifted = move |p: DVec2| never.value(p) + 2.0;
-    let r = project2(
-        &lifted,
-        DVec2::new(0.5, 0.5),
-        Projection::FirstOrder,
-        TOL,
-        30,
-    );
-    assert!(
-        matches!(
-            r,
-            Err(ProjectError::NoConvergence { .. }) | Err(ProjectError::ZeroGradient)
-        ),
-        "{r:?}"
-    );
+    let r = project2(&lifted, DVec2::new(0.5, 0.5), Projection::FirstOrder, TOL, 30);
+    assert!(matches!(r, Err(ProjectError::NoConvergence { .. }) | Err(ProjectError::ZeroGradient)), "{r:?}");
 }
 
 #[test]

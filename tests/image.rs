@@ -7,7 +7,8 @@ use trussmesh::topology::Level;
 use trussmesh::Error;
 
 /// Discs and a blob (two overlapping discs), white on black, 512 x 512.
-const DISCS: [(f64, f64, f64); 4] = [(150.0, 150.0, 80.0), (350.0, 330.0, 100.0), (380.0, 120.0, 50.0), (430.0, 150.0, 45.0)];
+const DISCS: [(f64, f64, f64); 4] =
+    [(150.0, 150.0, 80.0), (350.0, 330.0, 100.0), (380.0, 120.0, 50.0), (430.0, 150.0, 45.0)];
 
 fn draw(path: &std::path::Path) {
     let mut pix = tiny_skia::Pixmap::new(512, 512).unwrap();
@@ -37,14 +38,14 @@ fn synthetic_image_meshes_within_a_pixel() {
     let out = mesh_image(&grey, w, h, &ImageOptions::default()).unwrap();
     let m = &out.mesh;
     m.validate(Level::Geometry).unwrap();
-    let worst = m
-        .vertex_ids()
-        .filter(|&v| m.is_boundary_vertex(v))
-        .map(|v| true_distance(m.pos(v)).abs())
-        .fold(0.0, f64::max);
+    let worst =
+        m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).map(|v| true_distance(m.pos(v)).abs()).fold(0.0, f64::max);
     let q = out.report.quality;
     println!("| image | nodes | triangles | q min | q mean | worst boundary node (px) | seconds |");
-    println!("| 512 x 512, 4 discs | {} | {} | {:.3} | {:.4} | {:.3} | {:.2} |", q.vertices, q.triangles, q.q_min, q.q_mean, worst, out.report.seconds);
+    println!(
+        "| 512 x 512, 4 discs | {} | {} | {:.3} | {:.4} | {:.3} | {:.2} |",
+        q.vertices, q.triangles, q.q_min, q.q_mean, worst, out.report.seconds
+    );
     assert!(worst <= 1.0, "a boundary node is {worst} px from the true boundary");
     assert!(q.q_mean >= 0.95, "q mean {}", q.q_mean);
     // Three separate regions: three boundary loops.

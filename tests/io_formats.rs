@@ -3,8 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use trussmesh::io::{
-    fuzz_read_all, read_mesh, read_mesh_bytes, write_mesh, write_mesh_bytes, CellType, Format,
-    MeshData,
+    fuzz_read_all, read_mesh, read_mesh_bytes, write_mesh, write_mesh_bytes, CellType, Format, MeshData,
 };
 use trussmesh::Error;
 
@@ -40,12 +39,7 @@ fn surface3d(labels: bool) -> MeshData {
     MeshData {
         dim: 3,
         cell_type: CellType::Triangle,
-        points: vec![
-            [0.0, 0.0, 0.1],
-            [1.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.1, 0.2, 1.0 / 7.0 + 1.0],
-        ],
+        points: vec![[0.0, 0.0, 0.1], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.1, 0.2, 1.0 / 7.0 + 1.0]],
         cells: vec![1, 2, 3, 0, 3, 2, 0, 1, 3, 0, 2, 1],
         subdomain: labels.then(|| vec![4, 4, 5, 6]),
     }
@@ -58,14 +52,7 @@ fn tets(labels: bool) -> MeshData {
         let (x, y, z) = ((k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64);
         points.push([x + 0.01 * z, y - 0.02 * x, 0.9 * z + 0.1]);
     }
-    let paths = [
-        [1, 2, 4],
-        [1, 4, 2],
-        [2, 1, 4],
-        [2, 4, 1],
-        [4, 1, 2],
-        [4, 2, 1],
-    ];
+    let paths = [[1, 2, 4], [1, 4, 2], [2, 1, 4], [2, 4, 1], [4, 1, 2], [4, 2, 1]];
     let mut cells = Vec::new();
     for p in paths {
         let a = 0;
@@ -78,13 +65,7 @@ fn tets(labels: bool) -> MeshData {
         }
         cells.extend_from_slice(&t);
     }
-    MeshData {
-        dim: 3,
-        cell_type: CellType::Tetra,
-        points,
-        cells,
-        subdomain: labels.then(|| vec![1, 2, 1, 2, 3, 1]),
-    }
+    MeshData { dim: 3, cell_type: CellType::Tetra, points, cells, subdomain: labels.then(|| vec![1, 2, 1, 2, 3, 1]) }
 }
 
 fn all_meshes() -> Vec<(&'static str, MeshData)> {
@@ -109,12 +90,8 @@ fn exact_round_trips_volume_formats() {
         for (name, m) in all_meshes() {
             m.validate().unwrap();
             let bytes = write_mesh_bytes(&m, format).unwrap();
-            let back = read_mesh_bytes(&bytes, format).unwrap_or_else(|e| {
-                panic!(
-                    "{format:?} {name}: {e}\n{}",
-                    String::from_utf8_lossy(&bytes)
-                )
-            });
+            let back = read_mesh_bytes(&bytes, format)
+                .unwrap_or_else(|e| panic!("{format:?} {name}: {e}\n{}", String::from_utf8_lossy(&bytes)));
             assert_eq!(back, m, "{format:?} {name}");
             fuzz_read_all(&bytes);
         }
@@ -163,8 +140,7 @@ fn stl_round_trip_keeps_triangles_and_labels() {
             assert_eq!(back.num_cells(), 12);
         }
         // Once read, a mesh is in STL's canonical form and survives exactly.
-        let again =
-            read_mesh_bytes(&write_mesh_bytes(&back, Format::Stl).unwrap(), Format::Stl).unwrap();
+        let again = read_mesh_bytes(&write_mesh_bytes(&back, Format::Stl).unwrap(), Format::Stl).unwrap();
         assert_eq!(again, back);
         fuzz_read_all(&bytes);
     }
@@ -197,33 +173,21 @@ fn files_on_disk_and_dispatch() {
     // Invalid meshes are refused before writing.
     let mut bad = tri2d(false);
     bad.cells[4] = 99;
-    assert!(matches!(
-        write_mesh_bytes(&bad, Format::Json),
-        Err(Error::InvalidMesh(_))
-    ));
+    assert!(matches!(write_mesh_bytes(&bad, Format::Json), Err(Error::InvalidMesh(_))));
     std::fs::remove_dir_all(&d).ok();
 }
 
 fn parse_err(bytes: &[u8], format: Format) -> (usize, String) {
     match read_mesh_bytes(bytes, format) {
         Err(Error::Parse { line, message, .. }) => (line, message),
-        other => panic!(
-            "{format:?}: expected a parse error, got {other:?} for\n{}",
-            String::from_utf8_lossy(bytes)
-        ),
+        other => panic!("{format:?}: expected a parse error, got {other:?} for\n{}", String::from_utf8_lossy(bytes)),
     }
 }
 
 /// Replaces the first occurrence of `from` (after `after`) with `to`.
 fn edit(s: &str, after: &str, from: &str, to: &str) -> String {
-    let base = s
-        .find(after)
-        .unwrap_or_else(|| panic!("{after:?} not in file"))
-        + after.len();
-    let k = base
-        + s[base..]
-            .find(from)
-            .unwrap_or_else(|| panic!("{from:?} not in file"));
+    let base = s.find(after).unwrap_or_else(|| panic!("{after:?} not in file")) + after.len();
+    let k = base + s[base..].find(from).unwrap_or_else(|| panic!("{from:?} not in file"));
     format!("{}{}{}", &s[..k], to, &s[k + from.len()..])
 }
 
@@ -233,10 +197,7 @@ fn garbled_files_give_parse_errors() {
     let check = |f: Format, s: String, want: &str| {
         let (line, msg) = parse_err(s.as_bytes(), f);
         let lower = msg.to_lowercase();
-        assert!(
-            lower.contains(want),
-            "{f:?}: message {msg:?} should mention {want:?}"
-        );
+        assert!(lower.contains(want), "{f:?}: message {msg:?} should mention {want:?}");
         println!("{f:?} line {line}: {msg}");
     };
     let m2 = tri2d(true);
@@ -245,52 +206,21 @@ fn garbled_files_give_parse_errors() {
     let j = text(&m2, Format::Json);
     check(Format::Json, j.replace("1.0,", "1.0x,"), "expected");
     check(Format::Json, edit(&j, "cells", "[0,", "[99,"), "node 99");
-    check(
-        Format::Json,
-        j.replace("\"triangle\"", "\"quad\""),
-        "cell_type",
-    );
+    check(Format::Json, j.replace("\"triangle\"", "\"quad\""), "cell_type");
     check(Format::Json, j[..j.len() / 2].to_string(), "end of json");
     check(Format::Json, edit(&j, "points", "0.0", "1e999"), "finite");
     check(Format::Json, "[".repeat(10000), "deep");
 
     let v = text(&m3, Format::Vtu);
-    check(
-        Format::Vtu,
-        edit(&v, "Points", "0.1", "zz"),
-        "finite number",
-    );
-    check(
-        Format::Vtu,
-        v.replace(
-            "NumberOfPoints=\"8\"",
-            "NumberOfPoints=\"1000000000000000000\"",
-        ),
-        "numberofpoints",
-    );
-    check(
-        Format::Vtu,
-        v.replace("format=\"ascii\"", "format=\"binary\""),
-        "binary/appended",
-    );
+    check(Format::Vtu, edit(&v, "Points", "0.1", "zz"), "finite number");
+    check(Format::Vtu, v.replace("NumberOfPoints=\"8\"", "NumberOfPoints=\"1000000000000000000\""), "numberofpoints");
+    check(Format::Vtu, v.replace("format=\"ascii\"", "format=\"binary\""), "binary/appended");
     check(Format::Vtu, v[..v.len() / 2].to_string(), "truncated");
-    check(
-        Format::Vtu,
-        edit(&v, "connectivity", " 7", " 70"),
-        "node 70",
-    );
-    check(
-        Format::Vtu,
-        v.replace("<Points>", "<Points><Foo>"),
-        "</foo>",
-    );
+    check(Format::Vtu, edit(&v, "connectivity", " 7", " 70"), "node 70");
+    check(Format::Vtu, v.replace("<Points>", "<Points><Foo>"), "</foo>");
 
     let g = text(&m3, Format::Msh);
-    check(
-        Format::Msh,
-        g.replace("$Nodes\n1 8 1 8", "$Nodes\n1 1000000000000000000 1 8"),
-        "more than the rest",
-    );
+    check(Format::Msh, g.replace("$Nodes\n1 8 1 8", "$Nodes\n1 1000000000000000000 1 8"), "more than the rest");
     check(Format::Msh, g.replace("4.1 0 8", "2.2 0 8"), "version");
     check(Format::Msh, g.replace("4.1 0 8", "4.1 1 8"), "binary");
     check(Format::Msh, edit(&g, "$Elements", "\n1 ", "\n1 99 "), "");
@@ -298,22 +228,10 @@ fn garbled_files_give_parse_errors() {
     check(Format::Msh, edit(&g, "$Nodes", "0.1", "nan"), "finite");
 
     let d = text(&m3, Format::Medit);
-    check(
-        Format::Medit,
-        edit(&d, "Tetrahedra", "\n1 ", "\n100 "),
-        "vertex 100",
-    );
-    check(
-        Format::Medit,
-        d.replace("Vertices\n8", "Vertices\n800000000000"),
-        "more than the rest",
-    );
+    check(Format::Medit, edit(&d, "Tetrahedra", "\n1 ", "\n100 "), "vertex 100");
+    check(Format::Medit, d.replace("Vertices\n8", "Vertices\n800000000000"), "more than the rest");
     check(Format::Medit, d.replace("End", ""), "end");
-    check(
-        Format::Medit,
-        d.replace("Dimension 3", "Dimension 4"),
-        "dimension",
-    );
+    check(Format::Medit, d.replace("Dimension 3", "Dimension 4"), "dimension");
 
     let o = text(&m2, Format::Obj);
     check(Format::Obj, o.replace("f 1 ", "f 100 "), "out of range");
@@ -321,29 +239,13 @@ fn garbled_files_give_parse_errors() {
     check(Format::Obj, "v 1 2 3\n".to_string(), "no triangles");
 
     let s = text(&m2, Format::Stl);
-    check(
-        Format::Stl,
-        s[..s[..s.len() / 2].rfind('\n').unwrap() + 1].to_string(),
-        "end of file",
-    );
-    check(
-        Format::Stl,
-        s.replacen("outer loop", "outer lop", 1),
-        "loop",
-    );
+    check(Format::Stl, s[..s[..s.len() / 2].rfind('\n').unwrap() + 1].to_string(), "end of file");
+    check(Format::Stl, s.replacen("outer loop", "outer lop", 1), "loop");
     check(Format::Stl, "\u{1}\u{2}binary".to_string(), "binary");
 
     let p = text(&m2, Format::Ply);
-    check(
-        Format::Ply,
-        p.replace("element vertex 10", "element vertex 10000000000000000"),
-        "more than the file holds",
-    );
-    check(
-        Format::Ply,
-        p.replace("format ascii", "format binary_little_endian"),
-        "ascii",
-    );
+    check(Format::Ply, p.replace("element vertex 10", "element vertex 10000000000000000"), "more than the file holds");
+    check(Format::Ply, p.replace("format ascii", "format binary_little_endian"), "ascii");
     check(Format::Ply, p.replace("end_header", "end_hdr"), "");
     check(Format::Ply, p[..p.len() - 9].to_string(), "truncated");
 
@@ -406,11 +308,7 @@ fn gmsh_style_file() {
 fn regenerate_corpus() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/files");
     for (name, m) in all_meshes() {
-        let tag = if m.subdomain.is_some() {
-            "labels"
-        } else {
-            "plain"
-        };
+        let tag = if m.subdomain.is_some() { "labels" } else { "plain" };
         for f in Format::ALL {
             let p = dir.join(format!("{name}_{tag}.{}", f.extension()));
             write_mesh(&p, &m).unwrap();
@@ -431,19 +329,10 @@ fn meshio_reads_our_files() {
     }
     let d = tmpdir("meshio");
     for (name, m) in all_meshes() {
-        for f in [
-            Format::Vtu,
-            Format::Msh,
-            Format::Medit,
-            Format::Obj,
-            Format::Stl,
-            Format::Ply,
-        ] {
+        for f in [Format::Vtu, Format::Msh, Format::Medit, Format::Obj, Format::Stl, Format::Ply] {
             let p = d.join(format!("{name}.{}", f.extension()));
             write_mesh(&p, &m).unwrap();
-            let want_type = if m.cell_type == CellType::Tetra
-                && !matches!(f, Format::Obj | Format::Stl | Format::Ply)
-            {
+            let want_type = if m.cell_type == CellType::Tetra && !matches!(f, Format::Obj | Format::Stl | Format::Ply) {
                 "tetra"
             } else {
                 "triangle"
@@ -451,28 +340,13 @@ fn meshio_reads_our_files() {
             let script = format!(
                 "import meshio, sys\nm = meshio.read(sys.argv[1])\nprint(len(m.points), sum(len(c.data) for c in m.cells if c.type == '{want_type}'))"
             );
-            let out = std::process::Command::new("python3")
-                .args(["-c", &script, p.to_str().unwrap()])
-                .output()
-                .unwrap();
-            assert!(
-                out.status.success(),
-                "meshio failed on {}: {}",
-                p.display(),
-                String::from_utf8_lossy(&out.stderr)
-            );
+            let out =
+                std::process::Command::new("python3").args(["-c", &script, p.to_str().unwrap()]).output().unwrap();
+            assert!(out.status.success(), "meshio failed on {}: {}", p.display(), String::from_utf8_lossy(&out.stderr));
             let text = String::from_utf8_lossy(&out.stdout);
-            let nums: Vec<usize> = text
-                .split_whitespace()
-                .map(|x| x.parse().unwrap())
-                .collect();
+            let nums: Vec<usize> = text.split_whitespace().map(|x| x.parse().unwrap()).collect();
             let ours = read_mesh(&p).unwrap();
-            println!(
-                "meshio {name}.{}: {} points, {} {want_type}s",
-                f.extension(),
-                nums[0],
-                nums[1]
-            );
+            println!("meshio {name}.{}: {} points, {} {want_type}s", f.extension(), nums[0], nums[1]);
             assert_eq!(nums[1], ours.num_cells(), "{name} {f:?} cells");
             // STL repeats vertices per facet in meshio; the others list each point once.
             if f != Format::Stl {
@@ -494,11 +368,7 @@ fn cube_grid(k: usize) -> MeshData {
                 let w = 0.15 * (((i * 5 + j * 3 + l * 7) % 4) as f64 - 1.5) / k as f64;
                 let inner = i % k != 0 && j % k != 0 && l % k != 0;
                 let w = if inner { w } else { 0.0 };
-                points.push([
-                    i as f64 / k as f64 + w,
-                    j as f64 / k as f64 - w,
-                    l as f64 / k as f64 + 0.5 * w,
-                ]);
+                points.push([i as f64 / k as f64 + w, j as f64 / k as f64 - w, l as f64 / k as f64 + 0.5 * w]);
             }
         }
     }
@@ -518,13 +388,7 @@ fn cube_grid(k: usize) -> MeshData {
             }
         }
     }
-    MeshData {
-        dim: 3,
-        cell_type: CellType::Tetra,
-        points,
-        cells,
-        subdomain: None,
-    }
+    MeshData { dim: 3, cell_type: CellType::Tetra, points, cells, subdomain: None }
 }
 
 #[test]
@@ -536,11 +400,7 @@ fn pictures() {
     for j in 0..=n {
         for i in 0..=n {
             let (x, y) = (i as f64 / n as f64, j as f64 / n as f64 * 0.6);
-            let wob = if i % n != 0 && j % n != 0 {
-                0.02 * ((i * 7 + j * 3) % 5) as f64
-            } else {
-                0.0
-            };
+            let wob = if i % n != 0 && j % n != 0 { 0.02 * ((i * 7 + j * 3) % 5) as f64 } else { 0.0 };
             points.push([x + wob, y - 0.5 * wob, 0.0]);
         }
     }
@@ -551,29 +411,14 @@ fn pictures() {
             cells.extend_from_slice(&[a, a + 1, a + n + 2, a, a + n + 2, a + n + 1]);
         }
     }
-    let m2 = MeshData {
-        dim: 2,
-        cell_type: CellType::Triangle,
-        points,
-        cells,
-        subdomain: None,
-    };
-    for (name, m) in [
-        ("plane", m2),
-        ("surface", surface3d(false)),
-        ("tets", tets(true)),
-        ("cube", cube_grid(4)),
-    ] {
+    let m2 = MeshData { dim: 2, cell_type: CellType::Triangle, points, cells, subdomain: None };
+    for (name, m) in [("plane", m2), ("surface", surface3d(false)), ("tets", tets(true)), ("cube", cube_grid(4))] {
         let svg = d.join(format!("{name}.svg"));
         let png = d.join(format!("{name}.png"));
         trussmesh::io::write_svg(&svg, &m, &format!("{name} <test> & more")).unwrap();
         trussmesh::io::write_png(&png, &m, name, 600).unwrap();
         let s = std::fs::read_to_string(&svg).unwrap();
-        assert!(
-            s.starts_with("<svg")
-                && s.contains("&lt;test&gt; &amp; more")
-                && s.contains("<polygon")
-        );
+        assert!(s.starts_with("<svg") && s.contains("&lt;test&gt; &amp; more") && s.contains("<polygon"));
         let b = std::fs::read(&png).unwrap();
         assert_eq!(&b[1..4], b"PNG");
         if let Ok(keep) = std::env::var("TRUSSMESH_KEEP_PICTURES") {
@@ -581,13 +426,7 @@ fn pictures() {
             std::fs::copy(&svg, Path::new(&keep).join(format!("{name}.svg"))).unwrap();
         }
     }
-    let empty = MeshData {
-        dim: 2,
-        cell_type: CellType::Triangle,
-        points: vec![],
-        cells: vec![],
-        subdomain: None,
-    };
+    let empty = MeshData { dim: 2, cell_type: CellType::Triangle, points: vec![], cells: vec![], subdomain: None };
     assert!(trussmesh::io::write_png(&d.join("e.png"), &empty, "", 400).is_err());
     std::fs::remove_dir_all(&d).ok();
 }

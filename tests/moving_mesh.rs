@@ -26,18 +26,28 @@ fn hole_moves_through_a_rectangle_in_100_steps() {
     let (mut worst_min, mut worst_mean, mut total_s, mut max_moved) = (1.0f64, 1.0f64, 0.0, 0.0f64);
     for step in 1..=100 {
         let xc = -0.5 + step as f64 * 0.01;
-        let before: HashSet<(u64, u64)> = mesh.vertices().map(|(_, v)| (v.pos.x.to_bits(), v.pos.y.to_bits())).collect();
+        let before: HashSet<(u64, u64)> =
+            mesh.vertices().map(|(_, v)| (v.pos.x.to_bits(), v.pos.y.to_bits())).collect();
         let out = remesh_2d(&mesh, &domain(xc), &opts(STEP_ITER)).unwrap();
         out.mesh.validate(Level::Geometry).unwrap_or_else(|e| panic!("step {step}: {e}"));
         let q = out.report.quality;
-        let moved = out.mesh.vertices().filter(|(_, v)| !before.contains(&(v.pos.x.to_bits(), v.pos.y.to_bits()))).count() as f64
-            / out.mesh.num_vertices() as f64;
+        let moved =
+            out.mesh.vertices().filter(|(_, v)| !before.contains(&(v.pos.x.to_bits(), v.pos.y.to_bits()))).count()
+                as f64
+                / out.mesh.num_vertices() as f64;
         worst_min = worst_min.min(q.q_min);
         worst_mean = worst_mean.min(q.q_mean);
         max_moved = max_moved.max(moved);
         total_s += out.report.seconds;
         if step % 20 == 0 {
-            println!("step {step}: {} nodes, q min {:.3}, q mean {:.4}, {:.0}% of nodes moved, {:.3} s", q.vertices, q.q_min, q.q_mean, 100.0 * moved, out.report.seconds);
+            println!(
+                "step {step}: {} nodes, q min {:.3}, q mean {:.4}, {:.0}% of nodes moved, {:.3} s",
+                q.vertices,
+                q.q_min,
+                q.q_mean,
+                100.0 * moved,
+                out.report.seconds
+            );
         }
         assert!(q.q_min >= 0.5, "step {step}: q min {}", q.q_min);
         assert!(q.q_mean >= 0.95, "step {step}: q mean {}", q.q_mean);

@@ -143,8 +143,14 @@ fn unit_disk_h005_beats_the_classic_algorithm() {
     let dev_c = size_deviation(&classic.mesh, &|_| 1.0);
     let (ql, qc) = (local.report.quality, classic.report.quality);
     println!("| strategy | nodes | q min | q mean | size dev | seconds |");
-    println!("| local | {} | {:.4} | {:.4} | {:.4} | {:.3} |", ql.vertices, ql.q_min, ql.q_mean, dev_l, local.report.seconds);
-    println!("| classic | {} | {:.4} | {:.4} | {:.4} | {:.3} |", qc.vertices, qc.q_min, qc.q_mean, dev_c, classic.report.seconds);
+    println!(
+        "| local | {} | {:.4} | {:.4} | {:.4} | {:.3} |",
+        ql.vertices, ql.q_min, ql.q_mean, dev_l, local.report.seconds
+    );
+    println!(
+        "| classic | {} | {:.4} | {:.4} | {:.4} | {:.3} |",
+        qc.vertices, qc.q_min, qc.q_mean, dev_c, classic.report.seconds
+    );
     assert!(ql.q_mean >= 0.994, "q mean {}", ql.q_mean);
     assert!(ql.q_min >= 0.85, "q min {}", ql.q_min);
     assert!(dev_l <= 0.016, "size deviation {dev_l}");

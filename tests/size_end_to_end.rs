@@ -25,7 +25,16 @@ fn narrow_channel_gets_elements_across_and_graded_sizes() {
     let sz = size.clone();
     let opts = Options2::uniform(params.hmin, [bbox[0].x, bbox[0].y], [bbox[1].x, bbox[1].y])
         .with_size(move |p| sz.value(p))
-        .with_fixed([[-1.0, -0.5], [-1.0, 0.5], [1.0, -0.5], [1.0, 0.5], [-0.3, 0.5], [-0.3, -0.5], [0.3, 0.5], [0.3, -0.5]]);
+        .with_fixed([
+            [-1.0, -0.5],
+            [-1.0, 0.5],
+            [1.0, -0.5],
+            [1.0, 0.5],
+            [-0.3, 0.5],
+            [-0.3, -0.5],
+            [0.3, 0.5],
+            [0.3, -0.5],
+        ]);
     let out = mesh_2d(&domain, &opts).expect("meshing");
     let m = &out.mesh;
     m.validate(Level::Geometry).unwrap();
@@ -63,7 +72,11 @@ fn narrow_channel_gets_elements_across_and_graded_sizes() {
     let p99 = ratios[(ratios.len() as f64 * 0.99) as usize];
     let max = *ratios.last().unwrap();
     let tol = 0.25;
-    println!("neighbour size ratio: median {:.3}, 99th percentile {p99:.3}, max {max:.3}; bound (1 + g)(1 + {tol}) = {:.3}", ratios[ratios.len() / 2], (1.0 + g) * (1.0 + tol));
+    println!(
+        "neighbour size ratio: median {:.3}, 99th percentile {p99:.3}, max {max:.3}; bound (1 + g)(1 + {tol}) = {:.3}",
+        ratios[ratios.len() / 2],
+        (1.0 + g) * (1.0 + tol)
+    );
     assert!(p99 <= 1.0 + g, "99% of neighbours within 1 + g: {p99}");
     assert!(max <= (1.0 + g) * (1.0 + tol), "largest neighbour ratio {max}");
     // The size really is graded: far elements are much larger than channel elements.

@@ -15,10 +15,7 @@ fn model_problem(n: usize, spacing: f64) -> (Vec<f64>, Vec<f64>, (usize, usize))
     for j in 0..n {
         for i in 0..n {
             let p = DVec2::new(lo + spacing * i as f64, lo + spacing * j as f64);
-            exact[i + n * j] = srcs
-                .iter()
-                .map(|(s, hs)| hs + 0.3 * p.distance(*s))
-                .fold(f64::INFINITY, f64::min);
+            exact[i + n * j] = srcs.iter().map(|(s, hs)| hs + 0.3 * p.distance(*s)).fold(f64::INFINITY, f64::min);
             for (s, hs) in &srcs {
                 if p.distance(*s) < 1e-9 {
                     h0[i + n * j] = *hs;
@@ -30,10 +27,7 @@ fn model_problem(n: usize, spacing: f64) -> (Vec<f64>, Vec<f64>, (usize, usize))
 }
 
 fn max_err(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
 #[test]
@@ -45,8 +39,7 @@ fn seed_table_4_3_model_problem() {
     let t_fast = t.elapsed().as_secs_f64();
     let mut hj = h0.clone();
     let t = std::time::Instant::now();
-    let iters =
-        gradient_limit_hj_2d(&mut hj, dims, 1.0, &Slope::Constant(0.3), 1e-10, 100_000).unwrap();
+    let iters = gradient_limit_hj_2d(&mut hj, dims, 1.0, &Slope::Constant(0.3), 1e-10, 100_000).unwrap();
     let t_hj = t.elapsed().as_secs_f64();
     let (e_fast, e_hj) = (max_err(&fast, &exact), max_err(&hj, &exact));
     println!("table 4.3 model problem, 100 x 100 nodes, spacing 1, nodes -50..49:");
@@ -71,15 +64,7 @@ fn gradient_limit_3d_point_source() {
     h[c] = 0.5;
     let mut hj = h.clone();
     gradient_limit_fast_3d(&mut h, [n, n, n], 0.05, &Slope::Constant(0.2)).unwrap();
-    gradient_limit_hj_3d(
-        &mut hj,
-        [n, n, n],
-        0.05,
-        &Slope::Constant(0.2),
-        1e-12,
-        100_000,
-    )
-    .unwrap();
+    gradient_limit_hj_3d(&mut hj, [n, n, n], 0.05, &Slope::Constant(0.2), 1e-12, 100_000).unwrap();
     let mut e: f64 = 0.0;
     for k in 0..n {
         for j in 0..n {
@@ -145,27 +130,13 @@ fn medial_axis_rectangle() {
         ([1.0, 0.5], [0.5, 0.0]),
     ]
     .map(|(a, b)| (DVec2::from(a), DVec2::from(b)));
-    let dist = |p: DVec2| {
-        segs.iter()
-            .map(|s| seg_dist(p, s.0, s.1))
-            .fold(f64::INFINITY, f64::min)
-    };
+    let dist = |p: DVec2| segs.iter().map(|s| seg_dist(p, s.0, s.1)).fold(f64::INFINITY, f64::min);
     let worst = pts.iter().map(|&p| dist(p)).fold(0.0, f64::max);
-    println!(
-        "rectangle: {} medial axis points, worst distance {:.2e} ({:.3} h)",
-        pts.len(),
-        worst,
-        worst / h
-    );
+    println!("rectangle: {} medial axis points, worst distance {:.2e} ({:.3} h)", pts.len(), worst, worst / h);
     assert!(pts.len() > 100);
     assert!(worst <= 0.5 * h + 1e-9);
     // Coverage: the middle segment is found.
-    assert!(
-        pts.iter()
-            .filter(|p| p.y.abs() < 1e-9 && p.x.abs() < 0.45)
-            .count()
-            > 30
-    );
+    assert!(pts.iter().filter(|p| p.y.abs() < 1e-9 && p.x.abs() < 0.45).count() > 30);
 }
 
 /// Exact signed distance to the union of two circles of radius `r` at (+-c, 0), c < r < 2c.
@@ -177,10 +148,7 @@ fn two_circles(p: DVec2, c: f64, r: f64) -> f64 {
     }
     let yi = (r * r - c * c).sqrt();
     let corners = [DVec2::new(0.0, yi), DVec2::new(0.0, -yi)];
-    let to_corner = corners
-        .iter()
-        .map(|q| p.distance(*q))
-        .fold(f64::INFINITY, f64::min);
+    let to_corner = corners.iter().map(|q| p.distance(*q)).fold(f64::INFINITY, f64::min);
     // Distance to each circle's arc outside the other circle.
     let arc = |ca: DVec2, cb: DVec2| {
         let dir = (p - ca).normalize_or_zero();
@@ -237,10 +205,7 @@ fn parabola_dist(u: f64, w: f64, c: f64, rho: f64) -> f64 {
             roots.push(m * (th - 2.0 * std::f64::consts::PI * k as f64 / 3.0).cos());
         }
     }
-    roots
-        .iter()
-        .map(|&t| DVec2::new(c - t * t / (2.0 * rho) - u, t - w).length())
-        .fold(f64::INFINITY, f64::min)
+    roots.iter().map(|&t| DVec2::new(c - t * t / (2.0 * rho) - u, t - w).length()).fold(f64::INFINITY, f64::min)
 }
 
 /// Three parabolic regions u <= c - v^2/(2 rho) (c = 1, rho = 0.5) with axes at 90, 210, 330
@@ -292,10 +257,7 @@ fn medial_axis_three_parabolas() {
             beyond_tip = beyond_tip.max(p.dot(rays[k]) - 0.5);
         }
     }
-    let min_depth = pts
-        .iter()
-        .map(|&p| -three_parabolas(p))
-        .fold(f64::INFINITY, f64::min);
+    let min_depth = pts.iter().map(|&p| -three_parabolas(p)).fold(f64::INFINITY, f64::min);
     println!(
         "three parabolas: {} points, worst distance to the symmetry rays {:.2e} ({:.3} h), past a tip's centre of curvature by {:.3}, nearest to the boundary {:.3}",
         pts.len(),
@@ -310,10 +272,7 @@ fn medial_axis_three_parabolas() {
     assert!(min_depth > 2.0 * h);
     // Every tip branch is found over most of its length.
     for k in [1, 3, 5] {
-        let n = pts
-            .iter()
-            .filter(|p| seg_dist(**p, DVec2::ZERO, 0.5 * rays[k]) < h && p.length() > 0.1)
-            .count();
+        let n = pts.iter().filter(|p| seg_dist(**p, DVec2::ZERO, 0.5 * rays[k]) < h && p.length() > 0.1).count();
         assert!(n > 10, "tip branch {k}: {n} points");
     }
 }
@@ -357,26 +316,15 @@ fn strip_mesh(m: usize, l: f64, w: f64) -> (Vec<DVec2>, Vec<[usize; 3]>) {
 #[test]
 fn unstructured_strip_constant_space_and_size_dependent() {
     let (pts, tris) = strip_mesh(50, 10.0, 0.3);
-    let start = |pts: &[DVec2]| -> Vec<f64> {
-        pts.iter()
-            .map(|p| if p.x == 0.0 { 1.0 } else { 1e10 })
-            .collect()
-    };
+    let start = |pts: &[DVec2]| -> Vec<f64> { pts.iter().map(|p| if p.x == 0.0 { 1.0 } else { 1e10 }).collect() };
     // Constant g: h = 1 + g x exactly.
     let mut h = start(&pts);
     gradient_limit_mesh(&pts, &tris, &mut h, &Slope::Constant(0.3)).unwrap();
-    let e = pts
-        .iter()
-        .zip(&h)
-        .map(|(p, v)| (v - (1.0 + 0.3 * p.x)).abs())
-        .fold(0.0, f64::max);
+    let e = pts.iter().zip(&h).map(|(p, v)| (v - (1.0 + 0.3 * p.x)).abs()).fold(0.0, f64::max);
     println!("strip, constant g: max error {e:.1e}");
     assert!(e < 1e-12);
     // g(x) = 0.1 for x < 5, 0.5 beyond: h = 1 + 0.1 x, then 1.5 + 0.5 (x - 5).
-    let gx: Vec<f64> = pts
-        .iter()
-        .map(|p| if p.x < 5.0 { 0.1 } else { 0.5 })
-        .collect();
+    let gx: Vec<f64> = pts.iter().map(|p| if p.x < 5.0 { 0.1 } else { 0.5 }).collect();
     let mut h = start(&pts);
     gradient_limit_mesh(&pts, &tris, &mut h, &Slope::PerNode(&gx)).unwrap();
     let exact = |x: f64| {
@@ -387,22 +335,14 @@ fn unstructured_strip_constant_space_and_size_dependent() {
         }
     };
     // The edge update uses g at the updated node: first-order at the jump (one edge of 0.2).
-    let e = pts
-        .iter()
-        .zip(&h)
-        .map(|(p, v)| (v - exact(p.x)).abs())
-        .fold(0.0, f64::max);
+    let e = pts.iter().zip(&h).map(|(p, v)| (v - exact(p.x)).abs()).fold(0.0, f64::max);
     println!("strip, g(x) piecewise: max error {e:.2e}");
     assert!(e <= 0.4 * 0.2 + 1e-12);
     // g(h) = 0.1 h: h' = 0.1 h, h = exp(0.1 x) (edge updates: (1 + 0.1 dx) per step).
     let f = |h: f64| 0.1 * h;
     let mut h = start(&pts);
     gradient_limit_mesh(&pts, &tris, &mut h, &Slope::OfSize(&f)).unwrap();
-    let e = pts
-        .iter()
-        .zip(&h)
-        .map(|(p, v)| (v / (0.1 * p.x).exp() - 1.0).abs())
-        .fold(0.0, f64::max);
+    let e = pts.iter().zip(&h).map(|(p, v)| (v / (0.1 * p.x).exp() - 1.0).abs()).fold(0.0, f64::max);
     println!("strip, g(h) = 0.1 h: max relative error {e:.2e}");
     assert!(e < 0.02);
 }
@@ -418,9 +358,7 @@ fn grid_space_and_size_dependent_slopes() {
         }
         h
     };
-    let gx: Vec<f64> = (0..nx * ny)
-        .map(|k| if (k % nx) as f64 * dx < 5.0 { 0.1 } else { 0.5 })
-        .collect();
+    let gx: Vec<f64> = (0..nx * ny).map(|k| if (k % nx) as f64 * dx < 5.0 { 0.1 } else { 0.5 }).collect();
     let mut a = mk();
     gradient_limit_fast_2d(&mut a, (nx, ny), dx, &Slope::PerNode(&gx)).unwrap();
     let mut b = mk();
@@ -432,21 +370,14 @@ fn grid_space_and_size_dependent_slopes() {
             1.5 + 0.5 * (x - 5.0)
         }
     };
-    let e = (0..nx * ny)
-        .map(|k| (a[k] - exact((k % nx) as f64 * dx)).abs())
-        .fold(0.0, f64::max);
-    println!(
-        "grid strip g(x): max error {e:.2e} (fast), fast vs H-J {:.1e}",
-        max_err(&a, &b)
-    );
+    let e = (0..nx * ny).map(|k| (a[k] - exact((k % nx) as f64 * dx)).abs()).fold(0.0, f64::max);
+    println!("grid strip g(x): max error {e:.2e} (fast), fast vs H-J {:.1e}", max_err(&a, &b));
     assert!(e <= 0.4 * dx + 1e-9);
     assert!(max_err(&a, &b) < 1e-6);
     let f = |h: f64| 0.1 * h;
     let mut a = mk();
     gradient_limit_fast_2d(&mut a, (nx, ny), dx, &Slope::OfSize(&f)).unwrap();
-    let e = (0..nx * ny)
-        .map(|k| (a[k] / (0.1 * (k % nx) as f64 * dx).exp() - 1.0).abs())
-        .fold(0.0, f64::max);
+    let e = (0..nx * ny).map(|k| (a[k] / (0.1 * (k % nx) as f64 * dx).exp() - 1.0).abs()).fold(0.0, f64::max);
     println!("grid strip g(h) = 0.1 h: max relative error {e:.2e}");
     assert!(e < 0.01);
 }
@@ -467,27 +398,17 @@ fn auto_size_dumbbell() {
             false
         }
     }
-    let params = SizeParams {
-        k: 3.0,
-        r: 1.0,
-        g: 0.3,
-        hmin: 0.0,
-        hmax: 0.2,
-        ..Default::default()
-    };
+    let params = SizeParams { k: 3.0, r: 1.0, g: 0.3, hmin: 0.0, hmax: 0.2, ..Default::default() };
     let t = std::time::Instant::now();
-    let size = auto_size_2d(
-        &NotDistance(dom),
-        [DVec2::new(-1.1, -0.5), DVec2::new(1.1, 0.5)],
-        0.01,
-        &params,
-    )
-    .unwrap();
+    let size = auto_size_2d(&NotDistance(dom), [DVec2::new(-1.1, -0.5), DVec2::new(1.1, 0.5)], 0.01, &params).unwrap();
     let secs = t.elapsed().as_secs_f64();
     let hc = size.value(DVec2::new(0.0, 0.0));
     let hd = size.value(DVec2::new(-0.6, 0.0));
     let hb = size.value(DVec2::new(-0.95, 0.0));
-    println!("dumbbell ({:?} grid, {secs:.3} s): h(channel) {hc:.4}, h(disc centre) {hd:.4}, h(disc boundary) {hb:.4}", size.dims());
+    println!(
+        "dumbbell ({:?} grid, {secs:.3} s): h(channel) {hc:.4}, h(disc centre) {hd:.4}, h(disc boundary) {hb:.4}",
+        size.dims()
+    );
     // Channel: lfs = 0.05, R = 1.
     assert!(hc > 0.03 && hc < 0.07, "{hc}");
     // Far disc boundary: 1/(K kappa) = 0.35/3 ~ 0.117. (The union's reflex corners at the

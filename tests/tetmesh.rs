@@ -4,9 +4,7 @@
 use glam::DVec3;
 use proptest::prelude::*;
 use trussmesh::predicates::{orient3d, Sign};
-use trussmesh::testing::{
-    self, check_tet_ops, edge_shell, random_points_3d, single_tet, tet_pair, TetOp,
-};
+use trussmesh::testing::{self, check_tet_ops, edge_shell, random_points_3d, single_tet, tet_pair, TetOp};
 use trussmesh::topology::{Level, Refusal, TVertexId, TetId, TetMesh, VertexTag, EDGE_VERTICES};
 
 fn vids(m: &TetMesh) -> Vec<TVertexId> {
@@ -17,21 +15,12 @@ fn vids(m: &TetMesh) -> Vec<TVertexId> {
 fn edge_of(m: &TetMesh, a: TVertexId, b: TVertexId) -> (TetId, usize) {
     let t = m.find_edge(a, b).expect("edge exists");
     let (i, j) = (m.local_index(t, a).unwrap(), m.local_index(t, b).unwrap());
-    let e = EDGE_VERTICES
-        .iter()
-        .position(|&[x, y]| (x == i && y == j) || (x == j && y == i))
-        .unwrap();
+    let e = EDGE_VERTICES.iter().position(|&[x, y]| (x == i && y == j) || (x == j && y == i)).unwrap();
     (t, e)
 }
 
 fn first_interior_face(m: &TetMesh) -> (TetId, usize) {
-    m.tet_ids()
-        .find_map(|t| {
-            (0..4)
-                .find(|&i| m.neighbour(t, i).is_some())
-                .map(|i| (t, i))
-        })
-        .unwrap()
+    m.tet_ids().find_map(|t| (0..4).find(|&i| m.neighbour(t, i).is_some()).map(|i| (t, i))).unwrap()
 }
 
 #[test]
@@ -42,15 +31,10 @@ fn flip23_and_back() {
     let made = m.flip23(t, i).unwrap();
     assert_eq!(made.len(), 3);
     m.validate(Level::Geometry).unwrap();
-    assert_eq!(
-        (m.num_vertices(), m.num_tets(), m.boundary_faces().len()),
-        (5, 3, 6)
-    );
+    assert_eq!((m.num_vertices(), m.num_tets(), m.boundary_faces().len()), (5, 3, 6));
     assert!(m.find_edge(v[3], v[4]).is_some());
     // Every new tet holds the new edge 3-4; the old face 0-1-2 is gone.
-    assert!(made
-        .iter()
-        .all(|&t| m.tet(t).v.contains(&v[3]) && m.tet(t).v.contains(&v[4])));
+    assert!(made.iter().all(|&t| m.tet(t).v.contains(&v[3]) && m.tet(t).v.contains(&v[4])));
     assert!(!m.has_face(v[0], v[1], v[2]));
     let (t, e) = edge_of(&m, v[3], v[4]);
     let made = m.flip32(t, e).unwrap();
@@ -156,10 +140,7 @@ fn split_interior_and_boundary_edges() {
     let mid = (m.pos(v[0]) + m.pos(v[1])) * 0.5;
     let w = m.split_edge(t, e, mid).unwrap();
     m.validate(Level::Geometry).unwrap();
-    assert_eq!(
-        (m.num_vertices(), m.num_tets(), m.boundary_faces().len()),
-        (5, 2, 6)
-    );
+    assert_eq!((m.num_vertices(), m.num_tets(), m.boundary_faces().len()), (5, 2, 6));
     assert_eq!(m.tag(w), VertexTag::Boundary);
     assert!(m.is_boundary_vertex(w));
 
@@ -185,10 +166,7 @@ fn insertion_in_a_tet() {
     assert_eq!(m.vertex_neighbours(w).len(), 4);
     let before = m.clone();
     let t = m.tet_ids().next().unwrap();
-    assert_eq!(
-        m.insert_in_tet(t, DVec3::splat(5.0)).err(),
-        Some(Refusal::WouldInvert)
-    );
+    assert_eq!(m.insert_in_tet(t, DVec3::splat(5.0)).err(), Some(Refusal::WouldInvert));
     assert!(m == before);
 }
 
@@ -222,10 +200,7 @@ fn collapse_refusals() {
     let before = m.clone();
     let (t, e) = edge_of(&m, w, v[0]);
     let rev = m.tet(t).v[EDGE_VERTICES[e][0]] != w;
-    assert_eq!(
-        m.collapse(t, e, rev, m.pos(v[0])).err(),
-        Some(Refusal::Protected(VertexTag::Fixed))
-    );
+    assert_eq!(m.collapse(t, e, rev, m.pos(v[0])).err(), Some(Refusal::Protected(VertexTag::Fixed)));
     assert!(m == before);
     // A boundary vertex may not leave the boundary along an interior edge.
     let mut m = edge_shell(5);
@@ -233,18 +208,12 @@ fn collapse_refusals() {
     m.set_tag(v[0], VertexTag::Boundary);
     let (t, e) = edge_of(&m, v[0], v[1]);
     let rev = m.tet(t).v[EDGE_VERTICES[e][0]] != v[0];
-    assert_eq!(
-        m.collapse(t, e, rev, m.pos(v[1])).err(),
-        Some(Refusal::Protected(VertexTag::Boundary))
-    );
+    assert_eq!(m.collapse(t, e, rev, m.pos(v[1])).err(), Some(Refusal::Protected(VertexTag::Boundary)));
     // Interior edge between two boundary vertices: the link condition (boundary at infinity).
     let mut m = edge_shell(5);
     let v = vids(&m);
     let (t, e) = edge_of(&m, v[0], v[1]);
-    assert_eq!(
-        m.collapse(t, e, false, m.pos(v[1])).err(),
-        Some(Refusal::LinkCondition)
-    );
+    assert_eq!(m.collapse(t, e, false, m.pos(v[1])).err(), Some(Refusal::LinkCondition));
     // A single tet cannot lose an edge.
     let mut m = single_tet();
     let t = m.tet_ids().next().unwrap();
@@ -256,15 +225,9 @@ fn relocation() {
     let mut m = single_tet();
     let v = vids(&m);
     m.relocate(v[3], m.pos(v[3]) + DVec3::splat(0.01)).unwrap();
-    assert_eq!(
-        m.relocate(v[3], DVec3::new(0.3, 0.3, -1.0)).err(),
-        Some(Refusal::WouldInvert)
-    );
+    assert_eq!(m.relocate(v[3], DVec3::new(0.3, 0.3, -1.0)).err(), Some(Refusal::WouldInvert));
     m.set_tag(v[3], VertexTag::Fixed);
-    assert_eq!(
-        m.relocate(v[3], m.pos(v[3])).err(),
-        Some(Refusal::Protected(VertexTag::Fixed))
-    );
+    assert_eq!(m.relocate(v[3], m.pos(v[3])).err(), Some(Refusal::Protected(VertexTag::Fixed)));
     m.validate(Level::Geometry).unwrap();
 }
 
@@ -276,17 +239,11 @@ fn arrays_round_trip_and_boundary_surface() {
     let (m2, _) = TetMesh::from_arrays(&p, &t).unwrap();
     m2.validate(Level::Delaunay).unwrap();
     assert_eq!(
-        (
-            m2.num_vertices(),
-            m2.num_tets(),
-            m2.num_edges(),
-            m2.num_faces()
-        ),
+        (m2.num_vertices(), m2.num_tets(), m2.num_edges(), m2.num_faces()),
         (m.num_vertices(), m.num_tets(), m.num_edges(), m.num_faces())
     );
     // Euler characteristic of a ball: V - E + F - T = 1.
-    let chi =
-        m.num_vertices() as i64 - m.num_edges() as i64 + m.num_faces() as i64 - m.num_tets() as i64;
+    let chi = m.num_vertices() as i64 - m.num_edges() as i64 + m.num_faces() as i64 - m.num_tets() as i64;
     assert_eq!(chi, 1);
     for mesh in [m, edge_shell(7), single_tet(), tet_pair()] {
         let s = mesh.to_boundary_trimesh().unwrap();
@@ -375,12 +332,9 @@ fn op_strategy() -> impl Strategy<Value = TetOp> {
         (any::<u16>(), any::<u8>()).prop_map(|(k, e)| TetOp::Flip32(k, e)),
         (any::<u16>(), any::<u8>()).prop_map(|(k, e)| TetOp::RemoveEdge(k, e)),
         (any::<u16>(), any::<u8>(), any::<u8>()).prop_map(|(k, e, t)| TetOp::Split(k, e, t)),
-        (any::<u16>(), any::<u8>(), any::<bool>(), any::<u8>())
-            .prop_map(|(k, e, r, t)| TetOp::Collapse(k, e, r, t)),
-        (any::<u16>(), any::<u8>(), any::<u8>(), any::<u8>())
-            .prop_map(|(k, u, v, w)| TetOp::Insert(k, u, v, w)),
-        (any::<u16>(), any::<i8>(), any::<i8>(), any::<i8>())
-            .prop_map(|(k, x, y, z)| TetOp::Relocate(k, x, y, z)),
+        (any::<u16>(), any::<u8>(), any::<bool>(), any::<u8>()).prop_map(|(k, e, r, t)| TetOp::Collapse(k, e, r, t)),
+        (any::<u16>(), any::<u8>(), any::<u8>(), any::<u8>()).prop_map(|(k, u, v, w)| TetOp::Insert(k, u, v, w)),
+        (any::<u16>(), any::<i8>(), any::<i8>(), any::<i8>()).prop_map(|(k, x, y, z)| TetOp::Relocate(k, x, y, z)),
     ]
 }
 
@@ -418,18 +372,11 @@ fn delaunay_oracle(n: usize) {
         let (a, b, c) = (m.pos(f[0]), m.pos(f[1]), m.pos(f[2]));
         enclosed += a.dot(b.cross(c)) / 6.0;
         for p in &pts {
-            assert_ne!(
-                orient3d(a, b, c, *p),
-                Sign::Positive,
-                "a point lies outside a boundary face"
-            );
+            assert_ne!(orient3d(a, b, c, *p), Sign::Positive, "a point lies outside a boundary face");
         }
     }
     let vol = m.volume();
-    assert!(
-        (vol - enclosed).abs() < 1e-9 * vol.max(1.0),
-        "volume {vol} vs enclosed {enclosed}"
-    );
+    assert!((vol - enclosed).abs() < 1e-9 * vol.max(1.0), "volume {vol} vs enclosed {enclosed}");
     assert!(vol > 0.5 && vol < 1.0);
     let s = m.to_boundary_trimesh().unwrap();
     s.validate(Level::Topology).unwrap();
@@ -461,16 +408,10 @@ fn delaunay_oracle_1e5() {
 fn delaunay_is_invariant_under_translation_and_scaling() {
     let pts = random_points_3d(500, testing::SEED);
     let (m, _) = TetMesh::delaunay(&pts).unwrap();
-    let moved: Vec<DVec3> = pts
-        .iter()
-        .map(|p| *p * 4.0 + DVec3::new(-3.0, 10.0, 0.5))
-        .collect();
+    let moved: Vec<DVec3> = pts.iter().map(|p| *p * 4.0 + DVec3::new(-3.0, 10.0, 0.5)).collect();
     let (m2, _) = TetMesh::delaunay(&moved).unwrap();
     m2.validate(Level::Delaunay).unwrap();
-    assert_eq!(
-        (m.num_tets(), m.num_edges()),
-        (m2.num_tets(), m2.num_edges())
-    );
+    assert_eq!((m.num_tets(), m.num_edges()), (m2.num_tets(), m2.num_edges()));
 }
 
 #[test]
@@ -517,36 +458,22 @@ fn delaunay_of_degenerate_points() {
         }
         let (m, ids) = TetMesh::delaunay(&pts).unwrap();
         m.validate(Level::Delaunay).unwrap();
-        assert!(
-            (m.volume() - ((n - 1) * (n - 1) * (n - 1)) as f64).abs() < 1e-9,
-            "grid {n}: volume {}",
-            m.volume()
-        );
+        assert!((m.volume() - ((n - 1) * (n - 1) * (n - 1)) as f64).abs() < 1e-9, "grid {n}: volume {}", m.volume());
         assert_eq!(m.to_boundary_trimesh().unwrap().euler_characteristic(), 2);
         assert!(ids.iter().zip(&pts).all(|(&v, &p)| m.pos(v) == p));
     }
     let mut r = testing::Rng::new(testing::SEED);
-    let pts: Vec<DVec3> = (0..2000)
-        .map(|_| DVec3::new(r.f64() - 0.5, r.f64() - 0.5, r.f64() - 0.5).normalize())
-        .collect();
+    let pts: Vec<DVec3> =
+        (0..2000).map(|_| DVec3::new(r.f64() - 0.5, r.f64() - 0.5, r.f64() - 0.5).normalize()).collect();
     let (m, ids) = TetMesh::delaunay(&pts).unwrap();
     m.validate(Level::Delaunay).unwrap();
     assert!(ids.iter().all(|&v| m.contains_vertex(v)));
     let pts: Vec<DVec3> = (0..3000)
-        .map(|_| {
-            DVec3::new(
-                (r.next_u64() % 8) as f64,
-                (r.next_u64() % 8) as f64,
-                (r.next_u64() % 8) as f64,
-            )
-        })
+        .map(|_| DVec3::new((r.next_u64() % 8) as f64, (r.next_u64() % 8) as f64, (r.next_u64() % 8) as f64))
         .collect();
     let (m, ids) = TetMesh::delaunay(&pts).unwrap();
     m.validate(Level::Delaunay).unwrap();
-    assert!(ids
-        .iter()
-        .zip(&pts)
-        .all(|(&v, &p)| m.contains_vertex(v) && m.pos(v) == p));
+    assert!(ids.iter().zip(&pts).all(|(&v, &p)| m.contains_vertex(v) && m.pos(v) == p));
     assert!((m.volume() - 343.0).abs() < 1e-9);
 }
 
@@ -555,15 +482,8 @@ fn boundary_tags_protect_the_hull() {
     let (mut m, _) = TetMesh::delaunay(&random_points_3d(80, testing::SEED)).unwrap();
     let n = m.tag_boundary_vertices();
     assert!(n > 0 && n < m.num_vertices());
-    assert_eq!(
-        m.vertex_ids()
-            .filter(|&v| m.tag(v) == VertexTag::Boundary)
-            .count(),
-        n
-    );
-    assert!(m
-        .vertex_ids()
-        .all(|v| (m.tag(v) == VertexTag::Boundary) == m.is_boundary_vertex(v)));
+    assert_eq!(m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Boundary).count(), n);
+    assert!(m.vertex_ids().all(|v| (m.tag(v) == VertexTag::Boundary) == m.is_boundary_vertex(v)));
     // With tags set, no collapse may move a hull vertex off the hull: every accepted collapse
     // keeps the hull volume.
     let vol = m.volume();

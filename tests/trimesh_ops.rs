@@ -3,7 +3,9 @@
 
 use glam::DVec2;
 use proptest::prelude::*;
-use trussmesh::testing::{self, apply_op, check_ops, grid, random_points, single_triangle, two_triangles, vertex_onering, Op};
+use trussmesh::testing::{
+    self, apply_op, check_ops, grid, random_points, single_triangle, two_triangles, vertex_onering, Op,
+};
 use trussmesh::topology::{Level, Refusal, TriMesh, VertexTag};
 
 fn edge(m: &TriMesh<DVec2>, a: usize, b: usize) -> trussmesh::topology::HalfEdgeId {
@@ -178,7 +180,13 @@ fn arrays_round_trip() {
     assert!(TriMesh::from_arrays(&p, &[[0, 1, 99]]).is_err());
     assert!(TriMesh::<DVec2>::from_arrays(&p[..3], &[[0, 1, 1]]).is_err());
     assert!(TriMesh::from_arrays(&p[..4], &[[0, 1, 2]]).is_err()); // unused point 3
-    let bowtie = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0), DVec2::new(-1.0, 0.0), DVec2::new(0.0, -1.0)];
+    let bowtie = [
+        DVec2::new(0.0, 0.0),
+        DVec2::new(1.0, 0.0),
+        DVec2::new(0.0, 1.0),
+        DVec2::new(-1.0, 0.0),
+        DVec2::new(0.0, -1.0),
+    ];
     assert!(TriMesh::from_arrays(&bowtie, &[[0, 1, 2], [0, 3, 4]]).is_err());
 }
 
@@ -275,7 +283,8 @@ fn delaunay_matches_spade() {
         } else {
             m.validate(Level::Topology).unwrap();
         }
-        let ours: std::collections::BTreeSet<_> = m.edge_ids().map(|h| key(m.pos(m.origin(h)), m.pos(m.dest(h)))).collect();
+        let ours: std::collections::BTreeSet<_> =
+            m.edge_ids().map(|h| key(m.pos(m.origin(h)), m.pos(m.dest(h)))).collect();
         let theirs = spade_edges(&pts);
         println!("n = {n}: {} edges, spade {}", ours.len(), theirs.len());
         assert_eq!(ours.len(), theirs.len(), "edge count differs for n = {n}");

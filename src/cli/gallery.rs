@@ -1,11 +1,11 @@
 //! `trussmesh gallery`: every 2-D seed example meshed, pictured and tabulated.
 
-use trussmesh::gallery::EXAMPLES;
 use super::mesh::{parse_expr, write_output};
 use super::stats::compute;
 use super::{Cli, Command, Failure};
 use clap::{Args, Parser};
 use std::path::PathBuf;
+use trussmesh::gallery::EXAMPLES;
 
 /// Mesh every 2-D example of the seed into DIR, with DIR/quality.md.
 #[derive(Args, Debug)]
@@ -47,18 +47,13 @@ pub fn run(a: GalleryArgs) -> Result<(), Failure> {
         }
     }
     let md = a.dir.join("quality.md");
-    std::fs::write(&md, &table)
-        .map_err(|e| Failure::internal(format!("cannot write {}: {e}", md.display())))?;
+    std::fs::write(&md, &table).map_err(|e| Failure::internal(format!("cannot write {}: {e}", md.display())))?;
     print!("{table}");
     match failed.into_iter().next() {
         None => Ok(()),
         Some((name, f)) => Err(Failure {
             code: f.code,
-            message: format!(
-                "example {name} failed (see {}): {}",
-                md.display(),
-                f.message
-            ),
+            message: format!("example {name} failed (see {}): {}", md.display(), f.message),
         }),
     }
 }
@@ -66,16 +61,10 @@ pub fn run(a: GalleryArgs) -> Result<(), Failure> {
 fn one(a: &GalleryArgs, ex: &trussmesh::gallery::Example) -> Result<String, Failure> {
     let outs: Vec<String> = ["vtu", "msh", "json", "svg", "png"]
         .iter()
-        .map(|ext| {
-            a.dir
-                .join(format!("{}.{ext}", ex.name))
-                .display()
-                .to_string()
-        })
+        .map(|ext| a.dir.join(format!("{}.{ext}", ex.name)).display().to_string())
         .collect();
     let argv = std::iter::once("trussmesh".to_string()).chain(ex.args(&outs));
-    let cli = Cli::try_parse_from(argv)
-        .map_err(|e| Failure::internal(format!("example {}: {e}", ex.name)))?;
+    let cli = Cli::try_parse_from(argv).map_err(|e| Failure::internal(format!("example {}: {e}", ex.name)))?;
     let Command::Mesh(args) = cli.command else {
         return Err(Failure::internal("example is not a mesh command"));
     };

@@ -38,15 +38,14 @@ pub struct ImageArgs {
 /// Runs `trussmesh image`.
 pub fn run(a: ImageArgs) -> Result<(), Failure> {
     for p in &a.outputs {
-        trussmesh::io::Format::from_path(p)
-            .map(|_| ())
-            .or_else(|e| match p.extension().and_then(|x| x.to_str()) {
-                Some("svg") | Some("png") => Ok(()),
-                _ => Err(e),
-            })?;
+        trussmesh::io::Format::from_path(p).map(|_| ()).or_else(|e| match p.extension().and_then(|x| x.to_str()) {
+            Some("svg") | Some("png") => Ok(()),
+            _ => Err(e),
+        })?;
     }
     let (grey, w, h) = read_png_grey(&a.file).map_err(|e| Failure::bad(e.to_string()))?;
-    let opts = ImageOptions { threshold: a.threshold, invert: a.invert, h0: a.h0, max_ratio: a.max_ratio, scale: a.scale };
+    let opts =
+        ImageOptions { threshold: a.threshold, invert: a.invert, h0: a.h0, max_ratio: a.max_ratio, scale: a.scale };
     let out = mesh_image(&grey, w, h, &opts)?;
     let data = MeshData::from_trimesh2(&out.mesh);
     let title = a.file.display().to_string();

@@ -41,18 +41,7 @@ impl From<ProjectionArg> for Projection {
     }
 }
 
-const FLAGS: [&str; 10] = [
-    "dim",
-    "domain",
-    "size",
-    "h0",
-    "bbox",
-    "fix",
-    "max_iter",
-    "seed",
-    "projection",
-    "implicit",
-];
+const FLAGS: [&str; 10] = ["dim", "domain", "size", "h0", "bbox", "fix", "max_iter", "seed", "projection", "implicit"];
 
 /// Mesh {d < 0} given by expressions in x, y (z), or by a scene file.
 #[derive(Args, Debug, Default)]
@@ -196,8 +185,8 @@ impl MeshArgs {
         if let Some(path) = &self.scene {
             let text = std::fs::read_to_string(path)
                 .map_err(|e| Failure::bad(format!("cannot read {}: {e}", path.display())))?;
-            let s: SceneFile = toml::from_str(&text)
-                .map_err(|e| Failure::bad(format!("bad scene file {}: {e}", path.display())))?;
+            let s: SceneFile =
+                toml::from_str(&text).map_err(|e| Failure::bad(format!("bad scene file {}: {e}", path.display())))?;
             let mut outputs = s.output.unwrap_or_default();
             outputs.extend(self.output.iter().cloned());
             return Ok(Spec {
@@ -206,12 +195,7 @@ impl MeshArgs {
                 size: s.size,
                 h0: s.h0.text(),
                 bbox: s.bbox.iter().map(Num::text).collect(),
-                fix: s
-                    .fix
-                    .unwrap_or_default()
-                    .iter()
-                    .map(|p| p.iter().map(Num::text).collect())
-                    .collect(),
+                fix: s.fix.unwrap_or_default().iter().map(|p| p.iter().map(Num::text).collect()).collect(),
                 max_iter: s.max_iter,
                 seed: s.seed,
                 projection: s.projection,
@@ -221,17 +205,13 @@ impl MeshArgs {
         }
         let need = |v: &Option<String>, flag: &str| {
             v.clone().ok_or_else(|| {
-                Failure::bad(format!(
-                    "missing --{flag} (or give a SCENE.toml file); see trussmesh mesh --help"
-                ))
+                Failure::bad(format!("missing --{flag} (or give a SCENE.toml file); see trussmesh mesh --help"))
             })
         };
         let fix = match &self.fix {
-            Some(f) if !f.trim().is_empty() => split_top(f, ';')
-                .iter()
-                .filter(|p| !p.trim().is_empty())
-                .map(|p| split_top(p, ','))
-                .collect(),
+            Some(f) if !f.trim().is_empty() => {
+                split_top(f, ';').iter().filter(|p| !p.trim().is_empty()).map(|p| split_top(p, ',')).collect()
+            }
             _ => Vec::new(),
         };
         Ok(Spec {
@@ -252,8 +232,7 @@ impl MeshArgs {
 
 /// Parses an expression, reporting errors with a caret under the column.
 pub fn parse_expr(what: &str, src: &str) -> Result<Expr, Failure> {
-    Expr::parse(src)
-        .map_err(|e| Failure::bad(format!("bad {what} expression, {e}\n{}", e.render(src))))
+    Expr::parse(src).map_err(|e| Failure::bad(format!("bad {what} expression, {e}\n{}", e.render(src))))
 }
 
 /// A constant expression (a number, or something like 5*pi/2).
@@ -261,14 +240,10 @@ fn constant(what: &str, src: &str) -> Result<f64, Failure> {
     let e = parse_expr(what, src.trim())?;
     let v = e.eval(0.0, 0.0, 0.0);
     if e.eval(0.37, -1.3, 2.1).to_bits() != v.to_bits() && !v.is_nan() {
-        return Err(Failure::bad(format!(
-            "{what} must be a constant, not {src:?} (it depends on x, y or z)"
-        )));
+        return Err(Failure::bad(format!("{what} must be a constant, not {src:?} (it depends on x, y or z)")));
     }
     if !v.is_finite() {
-        return Err(Failure::bad(format!(
-            "{what} {src:?} is not a finite number"
-        )));
+        return Err(Failure::bad(format!("{what} {src:?} is not a finite number")));
     }
     Ok(v)
 }
@@ -276,10 +251,7 @@ fn constant(what: &str, src: &str) -> Result<f64, Failure> {
 const PICTURES: [&str; 2] = ["svg", "png"];
 
 fn extension(p: &Path) -> String {
-    p.extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        .unwrap_or_default()
+    p.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default()
 }
 
 /// Checks an output path's extension before any work is done.
@@ -310,25 +282,15 @@ impl Spec {
         if dim == 2 {
             for e in std::iter::once(&domain).chain(size.as_ref()) {
                 if e.uses_z() {
-                    return Err(Failure::bad(format!(
-                        "{:?} uses z but --dim is 2",
-                        e.source()
-                    )));
+                    return Err(Failure::bad(format!("{:?} uses z but --dim is 2", e.source())));
                 }
             }
         }
         let h0 = constant("h0", &self.h0)?;
         if h0 <= 0.0 {
-            return Err(Failure::bad(format!(
-                "h0 must be positive, got {h0} ({})",
-                self.h0.trim()
-            )));
+            return Err(Failure::bad(format!("h0 must be positive, got {h0} ({})", self.h0.trim())));
         }
-        let axes = if dim == 2 {
-            "X0,Y0,X1,Y1"
-        } else {
-            "X0,Y0,Z0,X1,Y1,Z1"
-        };
+        let axes = if dim == 2 { "X0,Y0,X1,Y1" } else { "X0,Y0,Z0,X1,Y1,Z1" };
         if self.bbox.len() != 2 * dim {
             return Err(Failure::bad(format!(
                 "--bbox needs {} values for --dim {dim} ({axes}), got {}",
@@ -336,11 +298,7 @@ impl Spec {
                 self.bbox.len()
             )));
         }
-        let bbox = self
-            .bbox
-            .iter()
-            .map(|s| constant("a --bbox value", s))
-            .collect::<Result<Vec<_>, _>>()?;
+        let bbox = self.bbox.iter().map(|s| constant("a --bbox value", s)).collect::<Result<Vec<_>, _>>()?;
         for k in 0..dim {
             if bbox[k] >= bbox[k + dim] {
                 return Err(Failure::bad(format!(
@@ -360,16 +318,10 @@ impl Spec {
                     p.len()
                 )));
             }
-            fix.push(
-                p.iter()
-                    .map(|s| constant("a --fix coordinate", s))
-                    .collect::<Result<Vec<_>, _>>()?,
-            );
+            fix.push(p.iter().map(|s| constant("a --fix coordinate", s)).collect::<Result<Vec<_>, _>>()?);
         }
         if self.outputs.is_empty() {
-            return Err(Failure::bad(
-                "no output file: give -o FILE (several allowed)",
-            ));
+            return Err(Failure::bad("no output file: give -o FILE (several allowed)"));
         }
         for p in &self.outputs {
             check_output(p)?;
@@ -396,9 +348,7 @@ fn progress_bar(quiet: bool) -> Option<ProgressBar> {
         return None;
     }
     let pb = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
-    if let Ok(style) =
-        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} iterations")
-    {
+    if let Ok(style) = ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} iterations") {
         pb.set_style(style.progress_chars("=> "));
     }
     Some(pb)
@@ -446,10 +396,7 @@ impl Job {
         if self.dim == 3 {
             return mesh3(self);
         }
-        let geom = ExprImplicit2 {
-            expr: self.domain.clone(),
-            distance: !self.implicit,
-        };
+        let geom = ExprImplicit2 { expr: self.domain.clone(), distance: !self.implicit };
         let pb = progress_bar(quiet);
         let out = mesh_2d(&geom, &self.options2(pb.clone()));
         if let Some(pb) = pb {
@@ -457,11 +404,8 @@ impl Job {
         }
         let out = out?;
         let (points, tris, labels, _) = out.mesh.to_arrays();
-        let subdomain = if labels.iter().any(|&l| l != 0) {
-            Some(labels.iter().map(|&l| l as i32).collect())
-        } else {
-            None
-        };
+        let subdomain =
+            if labels.iter().any(|&l| l != 0) { Some(labels.iter().map(|&l| l as i32).collect()) } else { None };
         let mesh = MeshData {
             dim: 2,
             cell_type: CellType::Triangle,
@@ -469,27 +413,21 @@ impl Job {
             cells: tris.iter().flatten().copied().collect(),
             subdomain,
         };
-        Ok(Meshed {
-            mesh,
-            report: out.report,
-        })
+        Ok(Meshed { mesh, report: out.report })
     }
 }
 
 /// 3-D meshing: the plumbing is here; the mesher is not yet.
 fn mesh3(_job: &Job) -> Result<Meshed, Failure> {
-    Err(Failure::bad(
-        "3-D meshing is not available yet (use --dim 2)",
-    ))
+    Err(Failure::bad("3-D meshing is not available yet (use --dim 2)"))
 }
 
 /// Writes one output: a mesh file, or a picture for .svg and .png.
 pub fn write_output(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Failure> {
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir).map_err(|e| {
-                Failure::internal(format!("cannot create directory {}: {e}", dir.display()))
-            })?;
+            std::fs::create_dir_all(dir)
+                .map_err(|e| Failure::internal(format!("cannot create directory {}: {e}", dir.display())))?;
         }
     }
     let r = match extension(path).as_str() {

@@ -1,6 +1,5 @@
 //! The command line: subcommands, errors and exit codes (0 ok, 1 internal failure, 2 bad input).
 
-
 mod gallery;
 mod image;
 mod mesh;
@@ -24,17 +23,11 @@ pub struct Failure {
 impl Failure {
     /// Bad input (exit 2).
     pub fn bad(message: impl Into<String>) -> Self {
-        Failure {
-            code: EXIT_BAD_INPUT,
-            message: message.into(),
-        }
+        Failure { code: EXIT_BAD_INPUT, message: message.into() }
     }
     /// Internal failure (exit 1).
     pub fn internal(message: impl Into<String>) -> Self {
-        Failure {
-            code: EXIT_INTERNAL,
-            message: message.into(),
-        }
+        Failure { code: EXIT_INTERNAL, message: message.into() }
     }
 }
 

@@ -86,18 +86,12 @@ fn tet_circumradius(p: [DVec3; 4]) -> f64 {
     if vol6 == 0.0 {
         return f64::INFINITY;
     }
-    let num = a.length_squared() * b.cross(c)
-        + b.length_squared() * c.cross(a)
-        + c.length_squared() * a.cross(b);
+    let num = a.length_squared() * b.cross(c) + b.length_squared() * c.cross(a) + c.length_squared() * a.cross(b);
     num.length() / (2.0 * vol6.abs())
 }
 
 /// Computes the statistics; `size` and `domain` are evaluated at (x, y, z).
-pub fn compute(
-    m: &MeshData,
-    domain: Option<(&Expr, bool)>,
-    size: Option<&Expr>,
-) -> Result<MeshStats, Failure> {
+pub fn compute(m: &MeshData, domain: Option<(&Expr, bool)>, size: Option<&Expr>) -> Result<MeshStats, Failure> {
     let n = m.num_cells();
     let mut radius = Vec::with_capacity(n);
     let mut centroid = Vec::with_capacity(n);
@@ -243,32 +237,17 @@ impl std::fmt::Display for MeshStats {
                 "q: min {:.4}, mean {:.4}, 1% {:.4}, 5% {:.4}, 50% {:.4}",
                 t.q_min, t.q_mean, t.q_p1, t.q_p5, t.q_p50
             )?;
-            writeln!(
-                f,
-                "angles: {:.2} to {:.2} degrees",
-                t.angle_min, t.angle_max
-            )?;
+            writeln!(f, "angles: {:.2} to {:.2} degrees", t.angle_min, t.angle_max)?;
         }
         if let Some(t) = &self.tets {
-            writeln!(
-                f,
-                "radius ratio: min {:.4}, mean {:.4}",
-                t.radius_ratio_min, t.radius_ratio_mean
-            )?;
-            writeln!(
-                f,
-                "dihedral angles: {:.2} to {:.2} degrees",
-                t.dihedral_min, t.dihedral_max
-            )?;
+            writeln!(f, "radius ratio: min {:.4}, mean {:.4}", t.radius_ratio_min, t.radius_ratio_mean)?;
+            writeln!(f, "dihedral angles: {:.2} to {:.2} degrees", t.dihedral_min, t.dihedral_max)?;
         }
         if let Some(s) = self.size_deviation {
             writeln!(f, "size deviation (std/mean of circumradius/h): {s:.4}")?;
         }
         if let Some(d) = self.boundary_max_abs_d {
-            writeln!(
-                f,
-                "boundary fidelity (max |d| on boundary vertices): {d:.3e}"
-            )?;
+            writeln!(f, "boundary fidelity (max |d| on boundary vertices): {d:.3e}")?;
         }
         Ok(())
     }
@@ -287,8 +266,8 @@ pub fn run(a: StatsArgs) -> Result<(), Failure> {
     let m = trussmesh::io::read_mesh(&a.file)?;
     let s = compute(&m, domain.as_ref().map(|d| (d, a.implicit)), size.as_ref())?;
     if a.json {
-        let text = serde_json::to_string_pretty(&s)
-            .map_err(|e| Failure::internal(format!("cannot print JSON: {e}")))?;
+        let text =
+            serde_json::to_string_pretty(&s).map_err(|e| Failure::internal(format!("cannot print JSON: {e}")))?;
         println!("{text}");
     } else {
         println!("file: {}", a.file.display());

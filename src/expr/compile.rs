@@ -90,15 +90,8 @@ struct Parser {
 
 pub(crate) fn compile(src: &str) -> Result<Program, ExprError> {
     let toks = lex(src)?;
-    let mut p = Parser {
-        toks,
-        pos: 0,
-        depth: 0,
-        code: Vec::new(),
-        polys: Vec::new(),
-        ranges: Vec::new(),
-        uses_z: false,
-    };
+    let mut p =
+        Parser { toks, pos: 0, depth: 0, code: Vec::new(), polys: Vec::new(), ranges: Vec::new(), uses_z: false };
     if p.peek() == &Tok::End {
         return Err(p.error_here("empty expression".into()));
     }
@@ -114,13 +107,7 @@ pub(crate) fn compile(src: &str) -> Result<Program, ExprError> {
         depth = depth.max(h);
     }
     debug_assert_eq!(h, 1);
-    Ok(Program {
-        code: p.code,
-        polys: p.polys,
-        ranges: p.ranges,
-        depth: depth as usize,
-        uses_z: p.uses_z,
-    })
+    Ok(Program { code: p.code, polys: p.polys, ranges: p.ranges, depth: depth as usize, uses_z: p.uses_z })
 }
 
 impl Parser {
@@ -141,10 +128,7 @@ impl Parser {
     }
 
     fn error_here(&self, message: String) -> ExprError {
-        ExprError {
-            column: self.column(),
-            message,
-        }
+        ExprError { column: self.column(), message }
     }
 
     /// The constant, if `code[start..end]` is exactly one constant.
@@ -195,9 +179,7 @@ impl Parser {
     /// Every level of nesting passes through here, so the depth limit lives here.
     fn unary(&mut self) -> Result<usize, ExprError> {
         if self.depth >= MAX_DEPTH {
-            return Err(
-                self.error_here(format!("expression nested deeper than {MAX_DEPTH} levels"))
-            );
+            return Err(self.error_here(format!("expression nested deeper than {MAX_DEPTH} levels")));
         }
         self.depth += 1;
         let r = self.unary_inner();
@@ -256,17 +238,13 @@ impl Parser {
                         _ if lookup(&name).is_some() => {
                             return Err(ExprError {
                                 column: t.column,
-                                message: format!(
-                                    "function '{name}' needs its arguments in parentheses"
-                                ),
+                                message: format!("function '{name}' needs its arguments in parentheses"),
                             })
                         }
                         _ => {
                             return Err(ExprError {
                                 column: t.column,
-                                message: format!(
-                                    "unknown variable '{name}' (the variables are x, y, z)"
-                                ),
+                                message: format!("unknown variable '{name}' (the variables are x, y, z)"),
                             })
                         }
                     };
@@ -276,18 +254,13 @@ impl Parser {
             Tok::End => {
                 return Err(ExprError {
                     column: t.column,
-                    message:
-                        "unexpected end of input: expected a number, variable, function or '('"
-                            .into(),
+                    message: "unexpected end of input: expected a number, variable, function or '('".into(),
                 })
             }
             other => {
                 return Err(ExprError {
                     column: t.column,
-                    message: format!(
-                        "unexpected {}: expected a number, variable, function or '('",
-                        other.describe()
-                    ),
+                    message: format!("unexpected {}: expected a number, variable, function or '('", other.describe()),
                 })
             }
         }
@@ -320,10 +293,7 @@ impl Parser {
                 "x" | "y" | "z" => " (variables are not functions; write x*(...) for a product)",
                 _ => "",
             };
-            return Err(ExprError {
-                column: col,
-                message: format!("unknown function '{name}'{hint}"),
-            });
+            return Err(ExprError { column: col, message: format!("unknown function '{name}'{hint}") });
         };
         let open_col = self.bump().column; // '('
         let mut args: Vec<usize> = Vec::new();
@@ -348,10 +318,8 @@ impl Parser {
             }
         }
         let n = args.len();
-        let wrong = |expected: String| ExprError {
-            column: col,
-            message: format!("{name} expects {expected}, got {n}"),
-        };
+        let wrong =
+            |expected: String| ExprError { column: col, message: format!("{name} expects {expected}, got {n}") };
         match func {
             Func::Unary(op) => {
                 if n != 1 {
@@ -396,11 +364,8 @@ impl Parser {
                         "x, y and an even number of at least 6 vertex coordinates (3 or more vertices)".into(),
                     ));
                 }
-                let end_of =
-                    |p: &Parser, i: usize| args.get(i + 1).copied().unwrap_or(p.code.len());
-                let verts: Option<Vec<f64>> = (2..n)
-                    .map(|i| self.konst(args[i], end_of(self, i)))
-                    .collect();
+                let end_of = |p: &Parser, i: usize| args.get(i + 1).copied().unwrap_or(p.code.len());
+                let verts: Option<Vec<f64>> = (2..n).map(|i| self.konst(args[i], end_of(self, i))).collect();
                 let xy_const = (0..2).all(|i| self.konst(args[i], end_of(self, i)).is_some());
                 let nv = (n - 2) / 2;
                 match verts {

@@ -77,12 +77,7 @@ impl Op {
 
 /// Numbers the interpreter can run on.
 pub(crate) trait Num:
-    Copy
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
 {
     const ZERO: Self;
     fn cst(c: f64) -> Self;
@@ -275,10 +270,7 @@ fn lin(a: [f64; 3], ka: f64, b: [f64; 3], kb: f64) -> [f64; 3] {
 impl Dual {
     #[inline(always)]
     fn chain(self, v: f64, k: f64) -> Dual {
-        Dual {
-            v,
-            d: scale(self.d, k),
-        }
+        Dual { v, d: scale(self.d, k) }
     }
 }
 
@@ -286,10 +278,7 @@ impl Add for Dual {
     type Output = Dual;
     #[inline(always)]
     fn add(self, o: Dual) -> Dual {
-        Dual {
-            v: self.v + o.v,
-            d: [self.d[0] + o.d[0], self.d[1] + o.d[1], self.d[2] + o.d[2]],
-        }
+        Dual { v: self.v + o.v, d: [self.d[0] + o.d[0], self.d[1] + o.d[1], self.d[2] + o.d[2]] }
     }
 }
 
@@ -297,10 +286,7 @@ impl Sub for Dual {
     type Output = Dual;
     #[inline(always)]
     fn sub(self, o: Dual) -> Dual {
-        Dual {
-            v: self.v - o.v,
-            d: [self.d[0] - o.d[0], self.d[1] - o.d[1], self.d[2] - o.d[2]],
-        }
+        Dual { v: self.v - o.v, d: [self.d[0] - o.d[0], self.d[1] - o.d[1], self.d[2] - o.d[2]] }
     }
 }
 
@@ -308,10 +294,7 @@ impl Mul for Dual {
     type Output = Dual;
     #[inline(always)]
     fn mul(self, o: Dual) -> Dual {
-        Dual {
-            v: self.v * o.v,
-            d: lin(self.d, o.v, o.d, self.v),
-        }
+        Dual { v: self.v * o.v, d: lin(self.d, o.v, o.d, self.v) }
     }
 }
 
@@ -320,10 +303,7 @@ impl Div for Dual {
     #[inline(always)]
     fn div(self, o: Dual) -> Dual {
         let q = self.v / o.v;
-        Dual {
-            v: q,
-            d: lin(self.d, 1.0 / o.v, o.d, -q / o.v),
-        }
+        Dual { v: q, d: lin(self.d, 1.0 / o.v, o.d, -q / o.v) }
     }
 }
 
@@ -331,10 +311,7 @@ impl Neg for Dual {
     type Output = Dual;
     #[inline(always)]
     fn neg(self) -> Dual {
-        Dual {
-            v: -self.v,
-            d: [-self.d[0], -self.d[1], -self.d[2]],
-        }
+        Dual { v: -self.v, d: [-self.d[0], -self.d[1], -self.d[2]] }
     }
 }
 
@@ -350,10 +327,7 @@ fn first_is_max(a: f64, b: f64) -> bool {
 }
 
 impl Num for Dual {
-    const ZERO: Self = Dual {
-        v: 0.0,
-        d: [0.0; 3],
-    };
+    const ZERO: Self = Dual { v: 0.0, d: [0.0; 3] };
     #[inline(always)]
     fn cst(c: f64) -> Self {
         Dual { v: c, d: [0.0; 3] }
@@ -409,19 +383,11 @@ impl Num for Dual {
         self.chain(self.v * self.v, 2.0 * self.v)
     }
     fn powi(self, n: i32) -> Self {
-        let k = if n == 0 {
-            0.0
-        } else {
-            n as f64 * self.v.powi(n - 1)
-        };
+        let k = if n == 0 { 0.0 } else { n as f64 * self.v.powi(n - 1) };
         self.chain(self.v.powi(n), k)
     }
     fn powc(self, c: f64) -> Self {
-        let k = if c == 0.0 {
-            0.0
-        } else {
-            c * self.v.powf(c - 1.0)
-        };
+        let k = if c == 0.0 { 0.0 } else { c * self.v.powf(c - 1.0) };
         self.chain(self.v.powf(c), k)
     }
     fn rpowc(c: f64, e: Self) -> Self {
@@ -430,34 +396,16 @@ impl Num for Dual {
     }
     fn pow(self, e: Self) -> Self {
         let v = self.v.powf(e.v);
-        let ka = if e.v == 0.0 {
-            0.0
-        } else {
-            e.v * self.v.powf(e.v - 1.0)
-        };
+        let ka = if e.v == 0.0 { 0.0 } else { e.v * self.v.powf(e.v - 1.0) };
         // The ln term only matters when the exponent varies; skipping it otherwise keeps
         // negative bases with constant exponents finite.
-        let kb = if e.d == [0.0; 3] {
-            0.0
-        } else {
-            v * self.v.ln()
-        };
-        Dual {
-            v,
-            d: lin(self.d, ka, e.d, kb),
-        }
+        let kb = if e.d == [0.0; 3] { 0.0 } else { v * self.v.ln() };
+        Dual { v, d: lin(self.d, ka, e.d, kb) }
     }
     fn atan2(self, x: Self) -> Self {
         let r2 = self.v * self.v + x.v * x.v;
-        let (ky, kx) = if r2 > 0.0 {
-            (x.v / r2, -self.v / r2)
-        } else {
-            (0.0, 0.0)
-        };
-        Dual {
-            v: self.v.atan2(x.v),
-            d: lin(self.d, ky, x.d, kx),
-        }
+        let (ky, kx) = if r2 > 0.0 { (x.v / r2, -self.v / r2) } else { (0.0, 0.0) };
+        Dual { v: self.v.atan2(x.v), d: lin(self.d, ky, x.d, kx) }
     }
     #[inline(always)]
     fn min(self, o: Self) -> Self {
@@ -477,10 +425,7 @@ impl Num for Dual {
     }
     #[inline(always)]
     fn add_c(self, c: f64) -> Self {
-        Dual {
-            v: self.v + c,
-            d: self.d,
-        }
+        Dual { v: self.v + c, d: self.d }
     }
     #[inline(always)]
     fn mul_c(self, c: f64) -> Self {
@@ -488,10 +433,7 @@ impl Num for Dual {
     }
     #[inline(always)]
     fn rsub_c(self, c: f64) -> Self {
-        Dual {
-            v: c - self.v,
-            d: [-self.d[0], -self.d[1], -self.d[2]],
-        }
+        Dual { v: c - self.v, d: [-self.d[0], -self.d[1], -self.d[2]] }
     }
     #[inline(always)]
     fn div_c(self, c: f64) -> Self {
@@ -504,10 +446,7 @@ impl Num for Dual {
     fn dpoly_const(x: Self, y: Self, verts: &[f64]) -> Self {
         let n = verts.len() / 2;
         let near = poly_nearest(x.v, y.v, n, |i| (verts[2 * i], verts[2 * i + 1]));
-        Dual {
-            v: near.dist,
-            d: lin(x.d, near.sign * near.nx, y.d, near.sign * near.ny),
-        }
+        Dual { v: near.dist, d: lin(x.d, near.sign * near.nx, y.d, near.sign * near.ny) }
     }
     fn dpoly_stack(x: Self, y: Self, verts: &[Self]) -> Self {
         let n = verts.len() / 2;
@@ -549,12 +488,7 @@ pub(crate) struct PolyNear {
 }
 
 /// Exact distance to a closed polygon with `n` vertices given by `vert`.
-pub(crate) fn poly_nearest(
-    px: f64,
-    py: f64,
-    n: usize,
-    vert: impl Fn(usize) -> (f64, f64),
-) -> PolyNear {
+pub(crate) fn poly_nearest(px: f64, py: f64, n: usize, vert: impl Fn(usize) -> (f64, f64)) -> PolyNear {
     let mut best = f64::INFINITY;
     let (mut seg, mut bt, mut bdx, mut bdy) = (0, 0.0, 0.0, 0.0);
     let mut inside = false;
@@ -564,11 +498,7 @@ pub(crate) fn poly_nearest(
         let (ex, ey) = (bx - ax, by - ay);
         let (wx, wy) = (px - ax, py - ay);
         let ee = ex * ex + ey * ey;
-        let t = if ee > 0.0 {
-            ((wx * ex + wy * ey) / ee).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let t = if ee > 0.0 { ((wx * ex + wy * ey) / ee).clamp(0.0, 1.0) } else { 0.0 };
         let (dx, dy) = (wx - t * ex, wy - t * ey);
         let d2 = dx * dx + dy * dy;
         // A NaN distance sticks: once `best` is NaN no comparison is true.
@@ -588,30 +518,13 @@ pub(crate) fn poly_nearest(
     }
     let d = best.sqrt();
     let sign = if inside { -1.0 } else { 1.0 };
-    let (nx, ny) = if d > 0.0 {
-        (bdx / d, bdy / d)
-    } else {
-        (0.0, 0.0)
-    };
-    PolyNear {
-        dist: sign * d,
-        seg,
-        t: bt,
-        nx,
-        ny,
-        sign,
-    }
+    let (nx, ny) = if d > 0.0 { (bdx / d, bdy / d) } else { (0.0, 0.0) };
+    PolyNear { dist: sign * d, seg, t: bt, nx, ny, sign }
 }
 
 /// Runs `code` with the accumulator convention. `stack` must hold the program's depth + 1.
 #[inline(always)]
-pub(crate) fn run<T: Num>(
-    code: &[Op],
-    polys: &[f64],
-    ranges: &[(u32, u32)],
-    vars: [f64; 3],
-    stack: &mut [T],
-) -> T {
+pub(crate) fn run<T: Num>(code: &[Op], polys: &[f64], ranges: &[(u32, u32)], vars: [f64; 3], stack: &mut [T]) -> T {
     let mut acc = T::ZERO;
     let mut sp = 0usize;
     for op in code {
@@ -689,9 +602,7 @@ pub(crate) fn run<T: Num>(
             Op::Sphere => {
                 sp -= 6;
                 let a = &stack[sp..sp + 6];
-                acc = ((a[0] - a[3]).square() + (a[1] - a[4]).square() + (a[2] - a[5]).square())
-                    .sqrt()
-                    - acc;
+                acc = ((a[0] - a[3]).square() + (a[1] - a[4]).square() + (a[2] - a[5]).square()).sqrt() - acc;
             }
             Op::Rect => {
                 // drectangle(x, y, x1, x2, y1, y2), the seed's cheap (not exact) form.
@@ -703,14 +614,8 @@ pub(crate) fn run<T: Num>(
             Op::Box3 => {
                 sp -= 8;
                 let a = &stack[sp..sp + 8];
-                let (x, y, z, x1, x2, y1, y2, z1, z2) =
-                    (a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], acc);
-                acc = -((-z1 + z)
-                    .min(z2 - z)
-                    .min(-y1 + y)
-                    .min(y2 - y)
-                    .min(-x1 + x)
-                    .min(x2 - x));
+                let (x, y, z, x1, x2, y1, y2, z1, z2) = (a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], acc);
+                acc = -((-z1 + z).min(z2 - z).min(-y1 + y).min(y2 - y).min(-x1 + x).min(x2 - x));
             }
             Op::PolyConst(k) => {
                 sp -= 1;
@@ -732,13 +637,7 @@ pub(crate) fn run<T: Num>(
 /// Runs `code` on a stack buffer sized for `depth`, spilling to a thread-local buffer
 /// only for unusually deep programs.
 #[inline(always)]
-pub(crate) fn run_sized<T: Num>(
-    code: &[Op],
-    polys: &[f64],
-    ranges: &[(u32, u32)],
-    vars: [f64; 3],
-    depth: usize,
-) -> T {
+pub(crate) fn run_sized<T: Num>(code: &[Op], polys: &[f64], ranges: &[(u32, u32)], vars: [f64; 3], depth: usize) -> T {
     let need = depth + 1;
     if need <= 8 {
         let mut s = [T::ZERO; 8];

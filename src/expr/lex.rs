@@ -51,10 +51,7 @@ pub(crate) fn lex(src: &str) -> Result<Vec<Token>, ExprError> {
     let chars: Vec<char> = src.chars().collect();
     let mut out = Vec::new();
     let mut i = 0;
-    let err = |i: usize, message: String| ExprError {
-        column: i + 1,
-        message,
-    };
+    let err = |i: usize, message: String| ExprError { column: i + 1, message };
     while i < chars.len() {
         let c = chars[i];
         let start = i;
@@ -70,10 +67,7 @@ pub(crate) fn lex(src: &str) -> Result<Vec<Token>, ExprError> {
             _ => None,
         };
         if let Some(tok) = single {
-            out.push(Token {
-                tok,
-                column: start + 1,
-            });
+            out.push(Token { tok, column: start + 1 });
             i += 1;
             continue;
         }
@@ -110,41 +104,23 @@ pub(crate) fn lex(src: &str) -> Result<Vec<Token>, ExprError> {
                     i += 1;
                 }
                 let text: String = chars[start..i.min(start + 40)].iter().collect();
-                let hint = if !ok {
-                    ": the exponent needs digits"
-                } else {
-                    ""
-                };
+                let hint = if !ok { ": the exponent needs digits" } else { "" };
                 return Err(err(start, format!("malformed number '{text}'{hint}")));
             }
             let text: String = chars[start..i].iter().collect();
-            let v: f64 = text
-                .parse()
-                .map_err(|_| err(start, format!("malformed number '{text}'")))?;
-            out.push(Token {
-                tok: Tok::Num(v),
-                column: start + 1,
-            });
+            let v: f64 = text.parse().map_err(|_| err(start, format!("malformed number '{text}'")))?;
+            out.push(Token { tok: Tok::Num(v), column: start + 1 });
             continue;
         }
         if c.is_ascii_alphabetic() || c == '_' {
             while chars.get(i).is_some_and(|&c| is_ident_char(c)) {
                 i += 1;
             }
-            out.push(Token {
-                tok: Tok::Ident(chars[start..i].iter().collect()),
-                column: start + 1,
-            });
+            out.push(Token { tok: Tok::Ident(chars[start..i].iter().collect()), column: start + 1 });
             continue;
         }
-        return Err(err(
-            start,
-            format!("unexpected character '{}'", c.escape_debug()),
-        ));
+        return Err(err(start, format!("unexpected character '{}'", c.escape_debug())));
     }
-    out.push(Token {
-        tok: Tok::End,
-        column: chars.len() + 1,
-    });
+    out.push(Token { tok: Tok::End, column: chars.len() + 1 });
     Ok(out)
 }

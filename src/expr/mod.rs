@@ -54,16 +54,7 @@ impl ExprError {
     /// Long sources are cut to a window around the column.
     pub fn render(&self, src: &str) -> String {
         const HALF: usize = 38;
-        let chars: Vec<char> = src
-            .chars()
-            .map(|c| {
-                if c.is_whitespace() || c.is_control() {
-                    ' '
-                } else {
-                    c
-                }
-            })
-            .collect();
+        let chars: Vec<char> = src.chars().map(|c| if c.is_whitespace() || c.is_control() { ' ' } else { c }).collect();
         let col = self.column.clamp(1, chars.len() + 1) - 1;
         let (from, to) = if chars.len() <= 2 * HALF {
             (0, chars.len())
@@ -167,10 +158,7 @@ pub struct ExprImplicit2 {
 impl ExprImplicit2 {
     /// Wraps `expr`, not claimed to be a distance.
     pub fn new(expr: Expr) -> Self {
-        ExprImplicit2 {
-            expr,
-            distance: false,
-        }
+        ExprImplicit2 { expr, distance: false }
     }
 }
 
@@ -199,10 +187,7 @@ pub struct ExprImplicit3 {
 impl ExprImplicit3 {
     /// Wraps `expr`, not claimed to be a distance.
     pub fn new(expr: Expr) -> Self {
-        ExprImplicit3 {
-            expr,
-            distance: false,
-        }
+        ExprImplicit3 { expr, distance: false }
     }
 }
 
@@ -246,11 +231,7 @@ pub fn fuzz_parse(data: &[u8]) {
         }
         Err(err) => {
             let n = src.chars().count();
-            assert!(
-                err.column >= 1 && err.column <= n + 1,
-                "column {} out of range",
-                err.column
-            );
+            assert!(err.column >= 1 && err.column <= n + 1, "column {} out of range", err.column);
             let _ = err.to_string();
             let _ = err.render(&src);
         }
@@ -269,10 +250,7 @@ mod tests {
     fn folds_constants() {
         let e = Expr::parse("2*pi*(1+3)^2 - sqrt(16)").unwrap();
         assert_eq!(e.program_len(), 1);
-        assert_eq!(
-            e.eval(0.0, 0.0, 0.0),
-            2.0 * std::f64::consts::PI * 16.0 - 4.0
-        );
+        assert_eq!(e.eval(0.0, 0.0, 0.0), 2.0 * std::f64::consts::PI * 16.0 - 4.0);
         let e = Expr::parse("dpoly(x, y, 0,0, 1,0, 1,1, 0,1)").unwrap();
         assert_eq!(e.program_len(), 3);
     }

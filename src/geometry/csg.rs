@@ -60,10 +60,7 @@ macro_rules! ctor {
 ctor!(Union, "The union of `a` and `b`.");
 ctor!(Difference, "`a` with `b` cut away.");
 ctor!(Intersection, "The intersection of `a` and `b`.");
-ctor!(
-    ExactCorners,
-    "The intersection of `a` and `b` with corrected corners."
-);
+ctor!(ExactCorners, "The intersection of `a` and `b` with corrected corners.");
 
 /// The union of `a` and `b`.
 pub fn union<A, B>(a: A, b: B) -> Union<A, B> {
@@ -180,11 +177,8 @@ macro_rules! csg_impl {
                     let d = da.hypot(db);
                     let (ga, gb) = (self.a.gradient(p), self.b.gradient(p));
                     let g = (da * ga + db * gb) / d;
-                    let sum = outer(ga, ga)
-                        + self.a.hessian(p)? * da
-                        + outer(gb, gb)
-                        + self.b.hessian(p)? * db
-                        - outer(g, g);
+                    let sum =
+                        outer(ga, ga) + self.a.hessian(p)? * da + outer(gb, gb) + self.b.hessian(p)? * db - outer(g, g);
                     Some(sum * (1.0 / d))
                 } else if da >= db {
                     self.a.hessian(p)
@@ -354,10 +348,8 @@ mod tests {
 
     #[test]
     fn boxed_shapes_compose() {
-        let parts: Vec<Shape3> = vec![
-            Shape3::new(Ball::new([0.0; 3], 1.0)),
-            Shape3::new(Box3::new([0.0; 3], [2.0; 3])),
-        ];
+        let parts: Vec<Shape3> =
+            vec![Shape3::new(Ball::new([0.0; 3], 1.0)), Shape3::new(Box3::new([0.0; 3], [2.0; 3]))];
         let mut it = parts.into_iter();
         let first = it.next().unwrap();
         let u = it.fold(Shape3::new(first), |acc, s| Shape3::new(union(acc, s)));

@@ -17,9 +17,7 @@ fn check_spacing(h: f64) -> Result<(), Error> {
     if h.is_finite() && h > 0.0 {
         Ok(())
     } else {
-        Err(Error::BadSize(format!(
-            "grid spacing {h} is not positive and finite"
-        )))
+        Err(Error::BadSize(format!("grid spacing {h} is not positive and finite")))
     }
 }
 
@@ -27,11 +25,7 @@ fn check_spacing(h: f64) -> Result<(), Error> {
 #[inline]
 fn locate(x: f64, origin: f64, h: f64, n: usize) -> (usize, f64) {
     let s = (x - origin) / h;
-    let i = if s.is_nan() {
-        0
-    } else {
-        (s.floor().max(0.0) as usize).min(n - 2)
-    };
+    let i = if s.is_nan() { 0 } else { (s.floor().max(0.0) as usize).min(n - 2) };
     (i, s - i as f64)
 }
 
@@ -50,54 +44,27 @@ pub struct Grid2 {
 impl Grid2 {
     /// A grid from its values (x fastest). Needs two samples per axis, a positive spacing and
     /// `nx * ny` finite values. `is_distance` defaults to true, as for the seed's `dmatrix`.
-    pub fn new(
-        origin: impl Into<DVec2>,
-        spacing: f64,
-        nx: usize,
-        ny: usize,
-        values: Vec<f64>,
-    ) -> Result<Self, Error> {
+    pub fn new(origin: impl Into<DVec2>, spacing: f64, nx: usize, ny: usize, values: Vec<f64>) -> Result<Self, Error> {
         check_spacing(spacing)?;
         let origin = origin.into();
         if !origin.is_finite() {
             return Err(Error::BadBox(format!("grid origin {origin} is not finite")));
         }
         if nx < 2 || ny < 2 {
-            return Err(Error::BadBox(format!(
-                "grid of {nx} x {ny} samples: need at least 2 x 2"
-            )));
+            return Err(Error::BadBox(format!("grid of {nx} x {ny} samples: need at least 2 x 2")));
         }
         if nx.checked_mul(ny) != Some(values.len()) {
-            return Err(Error::BadSize(format!(
-                "grid of {nx} x {ny} samples given {} values",
-                values.len()
-            )));
+            return Err(Error::BadSize(format!("grid of {nx} x {ny} samples given {} values", values.len())));
         }
         if let Some(&v) = values.iter().find(|v| !v.is_finite()) {
-            return Err(Error::NonFinite {
-                what: "grid value",
-                value: v,
-                at: [origin.x, origin.y, 0.0],
-            });
+            return Err(Error::NonFinite { what: "grid value", value: v, at: [origin.x, origin.y, 0.0] });
         }
-        Ok(Grid2 {
-            origin,
-            spacing,
-            nx,
-            ny,
-            values,
-            distance: true,
-        })
+        Ok(Grid2 { origin, spacing, nx, ny, values, distance: true })
     }
 
     /// Samples `f` at spacing `h` on a grid from `min` covering `max` (seed example 1: the
     /// circle sampled at 0.1 on [-1.1, 1.1]^2). Keeps `f`'s `is_distance`.
-    pub fn sample(
-        f: &dyn Implicit2,
-        min: impl Into<DVec2>,
-        max: impl Into<DVec2>,
-        h: f64,
-    ) -> Result<Self, Error> {
+    pub fn sample(f: &dyn Implicit2, min: impl Into<DVec2>, max: impl Into<DVec2>, h: f64) -> Result<Self, Error> {
         check_spacing(h)?;
         let (min, max) = (min.into(), max.into());
         if !(min.is_finite() && max.is_finite() && min.cmplt(max).all()) {
@@ -155,10 +122,7 @@ impl Implicit2 for Grid2 {
     }
     fn gradient(&self, p: DVec2) -> DVec2 {
         let ([v00, v10, v01, v11], s, t) = self.cell(p);
-        DVec2::new(
-            (1.0 - t) * (v10 - v00) + t * (v11 - v01),
-            (1.0 - s) * (v01 - v00) + s * (v11 - v10),
-        ) / self.spacing
+        DVec2::new((1.0 - t) * (v10 - v00) + t * (v11 - v01), (1.0 - s) * (v01 - v00) + s * (v11 - v10)) / self.spacing
     }
     /// The interpolant's own Hessian: only the cross term is non-zero.
     fn hessian(&self, p: DVec2) -> Option<DMat2> {
@@ -184,62 +148,33 @@ pub struct Grid3 {
 
 impl Grid3 {
     /// A grid from its values (x fastest, then y); see [`Grid2::new`].
-    pub fn new(
-        origin: impl Into<DVec3>,
-        spacing: f64,
-        n: [usize; 3],
-        values: Vec<f64>,
-    ) -> Result<Self, Error> {
+    pub fn new(origin: impl Into<DVec3>, spacing: f64, n: [usize; 3], values: Vec<f64>) -> Result<Self, Error> {
         check_spacing(spacing)?;
         let origin = origin.into();
         if !origin.is_finite() {
             return Err(Error::BadBox(format!("grid origin {origin} is not finite")));
         }
         if n.iter().any(|&k| k < 2) {
-            return Err(Error::BadBox(format!(
-                "grid of {n:?} samples: need at least 2 per axis"
-            )));
+            return Err(Error::BadBox(format!("grid of {n:?} samples: need at least 2 per axis")));
         }
         let total = n[0].checked_mul(n[1]).and_then(|m| m.checked_mul(n[2]));
         if total != Some(values.len()) {
-            return Err(Error::BadSize(format!(
-                "grid of {n:?} samples given {} values",
-                values.len()
-            )));
+            return Err(Error::BadSize(format!("grid of {n:?} samples given {} values", values.len())));
         }
         if let Some(&v) = values.iter().find(|v| !v.is_finite()) {
-            return Err(Error::NonFinite {
-                what: "grid value",
-                value: v,
-                at: origin.to_array(),
-            });
+            return Err(Error::NonFinite { what: "grid value", value: v, at: origin.to_array() });
         }
-        Ok(Grid3 {
-            origin,
-            spacing,
-            n,
-            values,
-            distance: true,
-        })
+        Ok(Grid3 { origin, spacing, n, values, distance: true })
     }
 
     /// Samples `f` at spacing `h` on a grid from `min` covering `max`.
-    pub fn sample(
-        f: &dyn Implicit3,
-        min: impl Into<DVec3>,
-        max: impl Into<DVec3>,
-        h: f64,
-    ) -> Result<Self, Error> {
+    pub fn sample(f: &dyn Implicit3, min: impl Into<DVec3>, max: impl Into<DVec3>, h: f64) -> Result<Self, Error> {
         check_spacing(h)?;
         let (min, max) = (min.into(), max.into());
         if !(min.is_finite() && max.is_finite() && min.cmplt(max).all()) {
             return Err(Error::BadBox(format!("grid box {min} .. {max}")));
         }
-        let n = [
-            count(min.x, max.x, h),
-            count(min.y, max.y, h),
-            count(min.z, max.z, h),
-        ];
+        let n = [count(min.x, max.x, h), count(min.y, max.y, h), count(min.z, max.z, h)];
         let mut values = Vec::with_capacity(n[0] * n[1] * n[2]);
         for k in 0..n[2] {
             for j in 0..n[1] {
@@ -312,9 +247,7 @@ fn dw(on: bool) -> f64 {
 impl Implicit3 for Grid3 {
     fn value(&self, p: DVec3) -> f64 {
         let (c, l) = self.cell(p);
-        (0..8)
-            .map(|b| c[b] * w(b & 1 != 0, l.x) * w(b & 2 != 0, l.y) * w(b & 4 != 0, l.z))
-            .sum()
+        (0..8).map(|b| c[b] * w(b & 1 != 0, l.x) * w(b & 2 != 0, l.y) * w(b & 4 != 0, l.z)).sum()
     }
     fn gradient(&self, p: DVec3) -> DVec3 {
         let (c, l) = self.cell(p);
@@ -341,11 +274,8 @@ impl Implicit3 for Grid3 {
         }
         let h2 = self.spacing * self.spacing;
         Some(
-            DMat3::from_cols(
-                DVec3::new(0.0, hxy, hxz),
-                DVec3::new(hxy, 0.0, hyz),
-                DVec3::new(hxz, hyz, 0.0),
-            ) * (1.0 / h2),
+            DMat3::from_cols(DVec3::new(0.0, hxy, hxz), DVec3::new(hxy, 0.0, hyz), DVec3::new(hxz, hyz, 0.0))
+                * (1.0 / h2),
         )
     }
     fn is_distance(&self) -> bool {
@@ -356,9 +286,7 @@ impl Implicit3 for Grid3 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::testing::{
-        check_gradient2, check_gradient3, check_hessian2, check_hessian3, Rng,
-    };
+    use crate::geometry::testing::{check_gradient2, check_gradient3, check_hessian2, check_hessian3, Rng};
     use crate::geometry::{Ball, Circle};
 
     #[test]
@@ -381,13 +309,9 @@ mod tests {
     #[test]
     fn bilinear_and_trilinear_derivatives() {
         let e = |p: DVec2| p.x * p.x + 2.0 * p.y * p.y - 1.0;
-        let g = Grid2::sample(&e, [-2.0, -2.0], [2.0, 2.0], 0.25)
-            .unwrap()
-            .with_distance(false);
+        let g = Grid2::sample(&e, [-2.0, -2.0], [2.0, 2.0], 0.25).unwrap().with_distance(false);
         let b = Ball::new([0.1, 0.0, -0.1], 0.8);
-        let g3 = Grid3::sample(&b, [-1.0; 3], [1.0; 3], 0.2)
-            .unwrap()
-            .with_distance(false);
+        let g3 = Grid3::sample(&b, [-1.0; 3], [1.0; 3], 0.2).unwrap().with_distance(false);
         let mut rng = Rng::new(2);
         for _ in 0..300 {
             let p = rng.point2(2.5); // includes extrapolation outside the box

@@ -14,15 +14,12 @@ mod testing;
 mod transform;
 
 pub use csg::{
-    difference, exact_corners, intersection, union, Difference, ExactCorners, Intersection, Shape2,
-    Shape3, Union,
+    difference, exact_corners, intersection, union, Difference, ExactCorners, Intersection, Shape2, Shape3, Union,
 };
 pub use grid::{Grid2, Grid3};
 pub use primitives2::{Circle, Ellipse, Polygon, Rectangle};
 pub use primitives3::{Ball, Box3, Cylinder};
-pub use project::{
-    newton_distance2, newton_distance3, project2, project3, ProjectError, Projection,
-};
+pub use project::{newton_distance2, newton_distance3, project2, project3, ProjectError, Projection};
 pub use transform::{Implicit2Ext, Implicit3Ext, Rotate, Scale, Translate};
 
 /// A 2-D implicit function. `value` is negative inside.

@@ -27,10 +27,7 @@ pub struct Circle {
 impl Circle {
     /// The disc of radius `r` about `center`.
     pub fn new(center: impl Into<DVec2>, r: f64) -> Self {
-        Circle {
-            center: center.into(),
-            radius: r,
-        }
+        Circle { center: center.into(), radius: r }
     }
 }
 
@@ -75,18 +72,11 @@ pub struct Rectangle {
 impl Rectangle {
     /// Exact signed distance to the rectangle `[min, max]`.
     pub fn new(min: impl Into<DVec2>, max: impl Into<DVec2>) -> Self {
-        Rectangle {
-            min: min.into(),
-            max: max.into(),
-            cheap: false,
-        }
+        Rectangle { min: min.into(), max: max.into(), cheap: false }
     }
     /// The seed's `drectangle`: -min(y - y1, y2 - y, x - x1, x2 - x).
     pub fn cheap(min: impl Into<DVec2>, max: impl Into<DVec2>) -> Self {
-        Rectangle {
-            cheap: true,
-            ..Rectangle::new(min, max)
-        }
+        Rectangle { cheap: true, ..Rectangle::new(min, max) }
     }
     /// Per-axis signed distance to the slab, and the sign of the side.
     #[inline]
@@ -94,10 +84,7 @@ impl Rectangle {
         let c = 0.5 * (self.min + self.max);
         let half = 0.5 * (self.max - self.min);
         let rel = p - c;
-        let sign = DVec2::new(
-            if rel.x < 0.0 { -1.0 } else { 1.0 },
-            if rel.y < 0.0 { -1.0 } else { 1.0 },
-        );
+        let sign = DVec2::new(if rel.x < 0.0 { -1.0 } else { 1.0 }, if rel.y < 0.0 { -1.0 } else { 1.0 });
         (rel.abs() - half, sign)
     }
 }
@@ -139,13 +126,8 @@ impl Polygon {
     pub fn new<P: Into<DVec2>>(vertices: impl IntoIterator<Item = P>) -> Self {
         let vertices: Vec<DVec2> = vertices.into_iter().map(Into::into).collect();
         let n = vertices.len();
-        let twice_area: f64 = (0..n)
-            .map(|i| vertices[i].perp_dot(vertices[(i + 1) % n]))
-            .sum();
-        Polygon {
-            vertices,
-            orientation: if twice_area < 0.0 { -1.0 } else { 1.0 },
-        }
+        let twice_area: f64 = (0..n).map(|i| vertices[i].perp_dot(vertices[(i + 1) % n])).sum();
+        Polygon { vertices, orientation: if twice_area < 0.0 { -1.0 } else { 1.0 } }
     }
     /// The vertices, in the order given.
     pub fn vertices(&self) -> &[DVec2] {
@@ -160,11 +142,7 @@ impl Polygon {
             let b = self.vertices[(i + 1) % n];
             let e = b - a;
             let l2 = e.length_squared();
-            let t = if l2 > 0.0 {
-                ((p - a).dot(e) / l2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
+            let t = if l2 > 0.0 { ((p - a).dot(e) / l2).clamp(0.0, 1.0) } else { 0.0 };
             let q = a + t * e;
             let d2 = (p - q).length_squared();
             if best.map_or(true, |(bd, _, _)| d2 < bd) {
@@ -239,11 +217,7 @@ pub struct Ellipse {
 impl Ellipse {
     /// The ellipse with semi-axes `a` (x) and `b` (y) about `center`.
     pub fn new(center: impl Into<DVec2>, a: f64, b: f64) -> Self {
-        Ellipse {
-            center: center.into(),
-            a,
-            b,
-        }
+        Ellipse { center: center.into(), a, b }
     }
 }
 
@@ -257,10 +231,7 @@ impl Implicit2 for Ellipse {
         DVec2::new(2.0 * r.x / (self.a * self.a), 2.0 * r.y / (self.b * self.b))
     }
     fn hessian(&self, _p: DVec2) -> Option<DMat2> {
-        Some(DMat2::from_diagonal(DVec2::new(
-            2.0 / (self.a * self.a),
-            2.0 / (self.b * self.b),
-        )))
+        Some(DMat2::from_diagonal(DVec2::new(2.0 / (self.a * self.a), 2.0 / (self.b * self.b))))
     }
     fn is_distance(&self) -> bool {
         false
@@ -320,11 +291,7 @@ mod tests {
         let mut rev = l.vertices().to_vec();
         rev.reverse();
         let r = Polygon::new(rev);
-        for p in [
-            DVec2::new(1.5, 1.5),
-            DVec2::new(0.3, 0.7),
-            DVec2::new(-1.0, 3.0),
-        ] {
+        for p in [DVec2::new(1.5, 1.5), DVec2::new(0.3, 0.7), DVec2::new(-1.0, 3.0)] {
             assert_eq!(l.value(p), r.value(p));
         }
         // On the boundary the gradient is the outward normal, for both orientations.
@@ -344,14 +311,7 @@ mod tests {
     #[test]
     fn gradients_match_finite_differences() {
         let mut rng = Rng::new(0x2d_5eed);
-        let l = Polygon::new([
-            [0.0, 0.0],
-            [2.0, 0.0],
-            [2.0, 1.0],
-            [1.0, 1.0],
-            [1.0, 2.0],
-            [0.0, 2.0],
-        ]);
+        let l = Polygon::new([[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]]);
         let shapes: Vec<Box<dyn Implicit2>> = vec![
             Box::new(Circle::new([0.3, -0.2], 0.8)),
             Box::new(Rectangle::new([-1.0, -0.5], [1.0, 0.7])),

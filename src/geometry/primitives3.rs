@@ -31,10 +31,7 @@ pub struct Ball {
 impl Ball {
     /// The ball of radius `r` about `center`.
     pub fn new(center: impl Into<DVec3>, r: f64) -> Self {
-        Ball {
-            center: center.into(),
-            radius: r,
-        }
+        Ball { center: center.into(), radius: r }
     }
 }
 
@@ -72,18 +69,11 @@ pub struct Box3 {
 impl Box3 {
     /// Exact signed distance to `[min, max]`.
     pub fn new(min: impl Into<DVec3>, max: impl Into<DVec3>) -> Self {
-        Box3 {
-            min: min.into(),
-            max: max.into(),
-            cheap: false,
-        }
+        Box3 { min: min.into(), max: max.into(), cheap: false }
     }
     /// Max over the six face planes: exact inside and off faces, too small off edges and corners.
     pub fn cheap(min: impl Into<DVec3>, max: impl Into<DVec3>) -> Self {
-        Box3 {
-            cheap: true,
-            ..Box3::new(min, max)
-        }
+        Box3 { cheap: true, ..Box3::new(min, max) }
     }
     #[inline]
     fn slabs(&self, p: DVec3) -> (DVec3, DVec3) {
@@ -149,11 +139,7 @@ impl Cylinder {
     #[inline]
     fn parts(&self, p: DVec3) -> (f64, f64, f64, DVec3) {
         let rho = p.x.hypot(p.y);
-        let radial = if rho > 0.0 {
-            DVec3::new(p.x / rho, p.y / rho, 0.0)
-        } else {
-            DVec3::X
-        };
+        let radial = if rho > 0.0 { DVec3::new(p.x / rho, p.y / rho, 0.0) } else { DVec3::X };
         (rho - self.radius, p.z - self.z1, self.z0 - p.z, radial)
     }
 }

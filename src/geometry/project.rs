@@ -76,23 +76,13 @@ pub fn project3(
 
 /// The signed distance from `p` to the zero set of any implicit `g`: sign(phi(p)) |p - P| with
 /// P the Newton closest point (seed eq. 2.13).
-pub fn newton_distance2(
-    g: &dyn Implicit2,
-    p: DVec2,
-    tol: f64,
-    max_iter: usize,
-) -> Result<f64, ProjectError> {
+pub fn newton_distance2(g: &dyn Implicit2, p: DVec2, tol: f64, max_iter: usize) -> Result<f64, ProjectError> {
     let q = project2(g, p, Projection::Newton, tol, max_iter)?;
     Ok((p - q).length().copysign(g.value(p)))
 }
 
 /// 3-D [`newton_distance2`].
-pub fn newton_distance3(
-    g: &dyn Implicit3,
-    p: DVec3,
-    tol: f64,
-    max_iter: usize,
-) -> Result<f64, ProjectError> {
+pub fn newton_distance3(g: &dyn Implicit3, p: DVec3, tol: f64, max_iter: usize) -> Result<f64, ProjectError> {
     let q = project3(g, p, Projection::Newton, tol, max_iter)?;
     Ok((p - q).length().copysign(g.value(p)))
 }
@@ -122,9 +112,7 @@ impl Geom<2> for G2<'_> {
     }
     fn hessian(&self, p: Vector<2>) -> Option<Matrix<2>> {
         // Column-major from glam; the Hessian is symmetric, so rows = columns.
-        self.0
-            .hessian(DVec2::from_array(p))
-            .map(|m| m.to_cols_array_2d())
+        self.0.hessian(DVec2::from_array(p)).map(|m| m.to_cols_array_2d())
     }
     fn is_distance(&self) -> bool {
         self.0.is_distance()
@@ -139,9 +127,7 @@ impl Geom<3> for G3<'_> {
         self.0.gradient(DVec3::from_array(p)).to_array()
     }
     fn hessian(&self, p: Vector<3>) -> Option<Matrix<3>> {
-        self.0
-            .hessian(DVec3::from_array(p))
-            .map(|m| m.to_cols_array_2d())
+        self.0.hessian(DVec3::from_array(p)).map(|m| m.to_cols_array_2d())
     }
     fn is_distance(&self) -> bool {
         self.0.is_distance()
@@ -208,11 +194,7 @@ fn project<const N: usize>(
             return Err(ProjectError::ZeroGradient);
         }
         let gl = g2.sqrt();
-        residual = if method == Projection::Exact {
-            phi.abs()
-        } else {
-            phi.abs() / gl
-        };
+        residual = if method == Projection::Exact { phi.abs() } else { phi.abs() / gl };
         if residual < tol {
             return Ok(x);
         }
@@ -287,27 +269,16 @@ fn adjugate_det<const N: usize>(h: &Matrix<N>) -> ([[Poly; N]; N], Poly) {
             for j in 0..N {
                 let (r0, r1) = ((j + 1) % 3, (j + 2) % 3);
                 let (c0, c1) = ((i + 1) % 3, (i + 2) % 3);
-                adj[i][j] = padd(
-                    &pmul(&m[r0][c0], &m[r1][c1]),
-                    &pmul(&m[r0][c1], &m[r1][c0]),
-                    -1.0,
-                );
+                adj[i][j] = padd(&pmul(&m[r0][c0], &m[r1][c1]), &pmul(&m[r0][c1], &m[r1][c0]), -1.0);
             }
         }
-        det = (0..N).fold([0.0; 7], |acc, j| {
-            padd(&acc, &pmul(&m[0][j], &adj[j][0]), 1.0)
-        });
+        det = (0..N).fold([0.0; 7], |acc, j| padd(&acc, &pmul(&m[0][j], &adj[j][0]), 1.0));
     }
     (adj, det)
 }
 
 /// The seed's second-order correction from `x`, or None without a Hessian or a usable root.
-fn second_order_step<const N: usize>(
-    g: &impl Geom<N>,
-    x: Vector<N>,
-    phi: f64,
-    grad: Vector<N>,
-) -> Option<Vector<N>> {
+fn second_order_step<const N: usize>(g: &impl Geom<N>, x: Vector<N>, phi: f64, grad: Vector<N>) -> Option<Vector<N>> {
     let h = g.hessian(x)?;
     if h.iter().flatten().any(|v| !v.is_finite()) {
         return None;
@@ -376,11 +347,7 @@ fn real_roots(c: &[f64]) -> Vec<f64> {
         _ => {}
     }
     let lead = c[n - 1];
-    let bound = 1.0
-        + c[..n - 1]
-            .iter()
-            .map(|ci| (ci / lead).abs())
-            .fold(0.0, f64::max);
+    let bound = 1.0 + c[..n - 1].iter().map(|ci| (ci / lead).abs()).fold(0.0, f64::max);
     if !bound.is_finite() {
         return Vec::new();
     }
@@ -421,11 +388,7 @@ fn bracketed_root(c: &[f64], deriv: &[f64], mut a: f64, mut b: f64, fa: f64) -> 
         }
         let d = peval(deriv, x);
         let newton = x - fx / d;
-        let next = if newton > a.min(b) && newton < a.max(b) {
-            newton
-        } else {
-            0.5 * (a + b)
-        };
+        let next = if newton > a.min(b) && newton < a.max(b) { newton } else { 0.5 * (a + b) };
         if next == x || (b - a).abs() <= 4.0 * f64::EPSILON * x.abs().max(f64::MIN_POSITIVE) {
             return next;
         }
@@ -456,13 +419,7 @@ fn newton<const N: usize>(
     };
     match newton_polish(g, p, start, tol, max_iter) {
         // A stationary point farther than the first-order point cannot be the closest one.
-        Some(x)
-            if first.map_or(true, |f| {
-                norm(sub(x, p)) <= norm(sub(f, p)) * (1.0 + 1e-8) + tol
-            }) =>
-        {
-            Ok(x)
-        }
+        Some(x) if first.map_or(true, |f| norm(sub(x, p)) <= norm(sub(f, p)) * (1.0 + 1e-8) + tol) => Ok(x),
         _ => first,
     }
 }
@@ -574,11 +531,7 @@ fn newton_polish<const N: usize>(
 
 /// Gaussian elimination with partial pivoting on the `n` by `n + 1` augmented system in `a`.
 fn solve(a: &mut [[f64; 5]; 4], n: usize) -> Option<[f64; 4]> {
-    let scale = a
-        .iter()
-        .take(n)
-        .flat_map(|row| row[..n].iter())
-        .fold(0.0, |m: f64, v| m.max(v.abs()));
+    let scale = a.iter().take(n).flat_map(|row| row[..n].iter()).fold(0.0, |m: f64, v| m.max(v.abs()));
     if !(scale > 0.0) {
         return None;
     }
@@ -620,10 +573,7 @@ mod tests {
             DVec2::new(-TAU * (TAU * p.x).cos(), 1.0)
         }
         fn hessian(&self, p: DVec2) -> Option<DMat2> {
-            Some(DMat2::from_cols(
-                DVec2::new(TAU * TAU * (TAU * p.x).sin(), 0.0),
-                DVec2::ZERO,
-            ))
+            Some(DMat2::from_cols(DVec2::new(TAU * TAU * (TAU * p.x).sin(), 0.0), DVec2::ZERO))
         }
         fn is_distance(&self) -> bool {
             false
@@ -704,18 +654,9 @@ mod tests {
     fn every_method_lands_on_circle_and_ellipse() {
         let c = Circle::new([0.2, -0.1], 1.3);
         let e = Ellipse::new([0.0, 0.0], 2.0, 1.0);
-        let methods = [
-            Projection::Auto,
-            Projection::Exact,
-            Projection::FirstOrder,
-            Projection::SecondOrder,
-            Projection::Newton,
-        ];
-        for p in [
-            DVec2::new(2.5, 1.0),
-            DVec2::new(0.1, 0.3),
-            DVec2::new(-3.0, -0.2),
-        ] {
+        let methods =
+            [Projection::Auto, Projection::Exact, Projection::FirstOrder, Projection::SecondOrder, Projection::Newton];
+        for p in [DVec2::new(2.5, 1.0), DVec2::new(0.1, 0.3), DVec2::new(-3.0, -0.2)] {
             for m in methods {
                 let q = project2(&c, p, m, 1e-12, 50).unwrap();
                 assert!(c.value(q).abs() < 1e-10, "{m:?} circle from {p}");
@@ -788,11 +729,7 @@ mod tests {
         let b = Ball::new([0.1, 0.2, 0.3], 0.9);
         let ell = |p: DVec3| p.x * p.x + 4.0 * p.y * p.y + 2.0 * p.z * p.z - 1.0;
         // The closure claims to be a distance by default, so Auto is left out for it.
-        for m in [
-            Projection::FirstOrder,
-            Projection::SecondOrder,
-            Projection::Newton,
-        ] {
+        for m in [Projection::FirstOrder, Projection::SecondOrder, Projection::Newton] {
             let p = DVec3::new(1.5, -0.7, 0.4);
             let q = project3(&b, p, m, 1e-12, 50).unwrap();
             assert!(b.value(q).abs() < 1e-10);
@@ -810,13 +747,8 @@ mod tests {
         for g in shapes {
             for _ in 0..300 {
                 let p = rng.point2(3.0);
-                for m in [
-                    Projection::FirstOrder,
-                    Projection::SecondOrder,
-                    Projection::Newton,
-                ] {
-                    let q = project2(g, p, m, 1e-12, 200)
-                        .unwrap_or_else(|err| panic!("{m:?} from {p}: {err}"));
+                for m in [Projection::FirstOrder, Projection::SecondOrder, Projection::Newton] {
+                    let q = project2(g, p, m, 1e-12, 200).unwrap_or_else(|err| panic!("{m:?} from {p}: {err}"));
                     assert!(g.value(q).abs() < 1e-10, "{m:?} from {p}");
                 }
                 let q1 = project2(g, p, Projection::FirstOrder, 1e-12, 200).unwrap();
@@ -838,26 +770,12 @@ mod tests {
             Err(ProjectError::NonFinite { .. })
         ));
         let flat = |_: DVec2| 1.0;
-        for m in [
-            Projection::Auto,
-            Projection::FirstOrder,
-            Projection::SecondOrder,
-            Projection::Newton,
-        ] {
-            assert_eq!(
-                project2(&flat, DVec2::ONE, m, 1e-12, 10),
-                Err(ProjectError::ZeroGradient)
-            );
+        for m in [Projection::Auto, Projection::FirstOrder, Projection::SecondOrder, Projection::Newton] {
+            assert_eq!(project2(&flat, DVec2::ONE, m, 1e-12, 10), Err(ProjectError::ZeroGradient));
         }
         let c = Circle::new([0.0, 0.0], 1.0);
         assert!(matches!(
-            project2(
-                &c,
-                DVec2::new(f64::INFINITY, 0.0),
-                Projection::Exact,
-                1e-12,
-                10
-            ),
+            project2(&c, DVec2::new(f64::INFINITY, 0.0), Projection::Exact, 1e-12, 10),
             Err(ProjectError::NonFinite { .. })
         ));
         // A cap of zero steps only checks.

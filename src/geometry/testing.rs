@@ -24,11 +24,7 @@ impl Rng {
         DVec2::new(self.uniform(-r, r), self.uniform(-r, r))
     }
     pub fn point3(&mut self, r: f64) -> DVec3 {
-        DVec3::new(
-            self.uniform(-r, r),
-            self.uniform(-r, r),
-            self.uniform(-r, r),
-        )
+        DVec3::new(self.uniform(-r, r), self.uniform(-r, r), self.uniform(-r, r))
     }
 }
 
@@ -37,23 +33,14 @@ const H: f64 = 1e-6;
 /// True when the analytic gradient jumps inside the stencil: a kink, where differences mean nothing.
 fn kinked2(g: &dyn Implicit2, p: DVec2) -> bool {
     let g0 = g.gradient(p);
-    [DVec2::X, DVec2::Y, -DVec2::X, -DVec2::Y]
-        .iter()
-        .any(|e| (g.gradient(p + 2.0 * H * *e) - g0).length() > 1e-3)
+    [DVec2::X, DVec2::Y, -DVec2::X, -DVec2::Y].iter().any(|e| (g.gradient(p + 2.0 * H * *e) - g0).length() > 1e-3)
 }
 
 fn kinked3(g: &dyn Implicit3, p: DVec3) -> bool {
     let g0 = g.gradient(p);
-    [
-        DVec3::X,
-        DVec3::Y,
-        DVec3::Z,
-        -DVec3::X,
-        -DVec3::Y,
-        -DVec3::Z,
-    ]
-    .iter()
-    .any(|e| (g.gradient(p + 2.0 * H * *e) - g0).length() > 1e-3)
+    [DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, -DVec3::Y, -DVec3::Z]
+        .iter()
+        .any(|e| (g.gradient(p + 2.0 * H * *e) - g0).length() > 1e-3)
 }
 
 /// Central differences of `value` against `gradient`; returns false when skipped at a kink.
@@ -66,15 +53,9 @@ pub fn check_gradient2(g: &dyn Implicit2, p: DVec2, tol: f64) -> bool {
         (g.value(p + DVec2::Y * H) - g.value(p - DVec2::Y * H)) / (2.0 * H),
     );
     let an = g.gradient(p);
-    assert!(
-        (fd - an).length() < tol * (1.0 + an.length()),
-        "gradient at {p}: analytic {an}, differences {fd}"
-    );
+    assert!((fd - an).length() < tol * (1.0 + an.length()), "gradient at {p}: analytic {an}, differences {fd}");
     if g.is_distance() {
-        assert!(
-            (an.length() - 1.0).abs() < 1e-8,
-            "distance gradient not unit at {p}: {an}"
-        );
+        assert!((an.length() - 1.0).abs() < 1e-8, "distance gradient not unit at {p}: {an}");
     }
     true
 }
@@ -88,10 +69,7 @@ pub fn check_hessian2(g: &dyn Implicit2, p: DVec2, tol: f64) {
     for (i, e) in [DVec2::X, DVec2::Y].into_iter().enumerate() {
         let fd = (g.gradient(p + e * H) - g.gradient(p - e * H)) / (2.0 * H);
         let col = hs.col(i);
-        assert!(
-            (fd - col).length() < tol * (1.0 + col.length()),
-            "hessian col {i} at {p}: {col} vs {fd}"
-        );
+        assert!((fd - col).length() < tol * (1.0 + col.length()), "hessian col {i} at {p}: {col} vs {fd}");
     }
 }
 
@@ -107,15 +85,9 @@ pub fn check_gradient3(g: &dyn Implicit3, p: DVec3, tol: f64) -> bool {
         fd[i] = (g.value(p + e) - g.value(p - e)) / (2.0 * H);
     }
     let an = g.gradient(p);
-    assert!(
-        (fd - an).length() < tol * (1.0 + an.length()),
-        "gradient at {p}: analytic {an}, differences {fd}"
-    );
+    assert!((fd - an).length() < tol * (1.0 + an.length()), "gradient at {p}: analytic {an}, differences {fd}");
     if g.is_distance() {
-        assert!(
-            (an.length() - 1.0).abs() < 1e-8,
-            "distance gradient not unit at {p}: {an}"
-        );
+        assert!((an.length() - 1.0).abs() < 1e-8, "distance gradient not unit at {p}: {an}");
     }
     true
 }
@@ -129,9 +101,6 @@ pub fn check_hessian3(g: &dyn Implicit3, p: DVec3, tol: f64) {
     for (i, e) in [DVec3::X, DVec3::Y, DVec3::Z].into_iter().enumerate() {
         let fd = (g.gradient(p + e * H) - g.gradient(p - e * H)) / (2.0 * H);
         let col = hs.col(i);
-        assert!(
-            (fd - col).length() < tol * (1.0 + col.length()),
-            "hessian col {i} at {p}: {col} vs {fd}"
-        );
+        assert!((fd - col).length() < tol * (1.0 + col.length()), "hessian col {i} at {p}: {col} vs {fd}");
     }
 }

@@ -63,10 +63,7 @@ pub struct Rotate<G, M> {
 impl<G> Rotate<G, DMat2> {
     /// `inner` turned counter-clockwise by `angle` radians about the origin.
     pub fn new(inner: G, angle: f64) -> Self {
-        Rotate {
-            inner,
-            rotation: DMat2::from_angle(angle),
-        }
+        Rotate { inner, rotation: DMat2::from_angle(angle) }
     }
 }
 
@@ -78,11 +75,7 @@ impl<G> Rotate<G, DMat3> {
     /// `inner` rotated by `angle` radians about `axis` (normalised here; zero axis means no turn).
     pub fn axis_angle(inner: G, axis: impl Into<DVec3>, angle: f64) -> Self {
         let axis = axis.into().normalize_or_zero();
-        let rotation = if axis == DVec3::ZERO {
-            DMat3::IDENTITY
-        } else {
-            DMat3::from_axis_angle(axis, angle)
-        };
+        let rotation = if axis == DVec3::ZERO { DMat3::IDENTITY } else { DMat3::from_axis_angle(axis, angle) };
         Rotate { inner, rotation }
     }
 }
@@ -256,10 +249,7 @@ mod tests {
         let s = Circle::new([1.0, 0.0], 1.0).scale(3.0);
         assert!((s.value(DVec2::new(3.0, 0.0)) + 3.0).abs() < 1e-14);
         assert!((s.value(DVec2::new(10.0, 0.0)) - 4.0).abs() < 1e-14);
-        let e = Ellipse::new([0.5, 0.0], 2.0, 1.0)
-            .rotate(0.7)
-            .scale(1.5)
-            .translate([0.3, 0.1]);
+        let e = Ellipse::new([0.5, 0.0], 2.0, 1.0).rotate(0.7).scale(1.5).translate([0.3, 0.1]);
         assert!(!e.is_distance());
         let mut rng = Rng::new(3);
         for _ in 0..200 {

@@ -33,9 +33,7 @@ impl<'a> Parser<'a> {
 
     fn unexpected(&self, wanted: &str) -> Error {
         if self.i >= self.b.len() {
-            self.err(format!(
-                "unexpected end of JSON (truncated file?) while expecting {wanted}"
-            ))
+            self.err(format!("unexpected end of JSON (truncated file?) while expecting {wanted}"))
         } else {
             self.err(format!("expected {wanted}"))
         }
@@ -127,11 +125,7 @@ impl<'a> Parser<'a> {
                 Ok(Value::Num(&self.s[start..self.i]))
             }
             Some(_) => {
-                for (word, v) in [
-                    ("null", Value::Null),
-                    ("true", Value::Bool),
-                    ("false", Value::Bool),
-                ] {
+                for (word, v) in [("null", Value::Null), ("true", Value::Bool), ("false", Value::Bool)] {
                     if self.s[self.i..].starts_with(word) {
                         self.i += word.len();
                         return Ok(v);
@@ -163,13 +157,7 @@ impl<'a> Parser<'a> {
 }
 
 pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
-    let mut p = Parser {
-        s,
-        b: s.as_bytes(),
-        i: 0,
-        line: 1,
-        path,
-    };
+    let mut p = Parser { s, b: s.as_bytes(), i: 0, line: 1, path };
     let v = p.value(0)?;
     p.ws();
     if p.i != p.b.len() {
@@ -180,8 +168,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
         _ => return Err(perr(path, 1, "expected a JSON object at the top level")),
     };
     let get = |k: &str| fields.iter().find(|f| f.0 == k);
-    let need =
-        |k: &str| get(k).ok_or_else(|| perr(path, 1, format!("missing key {k:?} in mesh JSON")));
+    let need = |k: &str| get(k).ok_or_else(|| perr(path, 1, format!("missing key {k:?} in mesh JSON")));
     let (_, dv, dline) = need("dim")?;
     let dim = match dv {
         Value::Num("2") => 2,
@@ -192,13 +179,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
     let cell_type = match cv {
         Value::Str(s) if s == "triangle" => CellType::Triangle,
         Value::Str(s) if s == "tetra" => CellType::Tetra,
-        _ => {
-            return Err(perr(
-                path,
-                *cline,
-                "\"cell_type\" must be \"triangle\" or \"tetra\"",
-            ))
-        }
+        _ => return Err(perr(path, *cline, "\"cell_type\" must be \"triangle\" or \"tetra\"")),
     };
     if cell_type == CellType::Tetra && dim != 3 {
         return Err(perr(path, *cline, "tetra meshes need \"dim\": 3"));
@@ -213,11 +194,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
             return Err(perr(path, *pline, format!("point {i} is not an array")));
         };
         if cs.len() != dim {
-            return Err(perr(
-                path,
-                *line,
-                format!("point {i} has {} coordinates, expected {dim}", cs.len()),
-            ));
+            return Err(perr(path, *line, format!("point {i} has {} coordinates, expected {dim}", cs.len())));
         }
         let mut x = [0.0; 3];
         for (k, c) in cs.iter().enumerate() {
@@ -225,13 +202,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                 Value::Num(t) => parse_f64(t),
                 _ => None,
             }
-            .ok_or_else(|| {
-                perr(
-                    path,
-                    *line,
-                    format!("point {i}: coordinate is not a finite number"),
-                )
-            })?;
+            .ok_or_else(|| perr(path, *line, format!("point {i}: coordinate is not a finite number")))?;
         }
         points.push(x);
     }
@@ -261,21 +232,12 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                 Value::Num(t) => t.parse::<usize>().ok(),
                 _ => None,
             }
-            .ok_or_else(|| {
-                perr(
-                    path,
-                    *line,
-                    format!("cell {i}: node index is not a non-negative integer"),
-                )
-            })?;
+            .ok_or_else(|| perr(path, *line, format!("cell {i}: node index is not a non-negative integer")))?;
             if j >= points.len() {
                 return Err(perr(
                     path,
                     *line,
-                    format!(
-                        "cell {i} uses node {j} but there are only {} points",
-                        points.len()
-                    ),
+                    format!("cell {i} uses node {j} but there are only {} points", points.len()),
                 ));
             }
             cells.push(j);
@@ -288,11 +250,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
         None | Some((_, Value::Null, _)) => None,
         Some((_, Value::Arr(ls, line), _)) => {
             if ls.len() != cs.len() {
-                return Err(perr(
-                    path,
-                    *line,
-                    format!("{} subdomain labels for {} cells", ls.len(), cs.len()),
-                ));
+                return Err(perr(path, *line, format!("{} subdomain labels for {} cells", ls.len(), cs.len())));
             }
             let mut out = Vec::with_capacity(ls.len());
             for l in ls {
@@ -308,13 +266,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
         }
         Some((_, _, line)) => return Err(perr(path, *line, "\"subdomain\" must be an array")),
     };
-    Ok(MeshData {
-        dim,
-        cell_type,
-        points,
-        cells,
-        subdomain,
-    })
+    Ok(MeshData { dim, cell_type, points, cells, subdomain })
 }
 
 pub(crate) fn write(m: &MeshData) -> String {

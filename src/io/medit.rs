@@ -6,12 +6,7 @@ use super::{CellType, MeshData};
 use crate::Error;
 
 /// Reads one entity section: count, then `k` 1-based indices and a ref per entity.
-fn read_entities(
-    t: &mut Tokens,
-    what: &str,
-    k: usize,
-    npts: usize,
-) -> Result<(Vec<usize>, Vec<i32>), Error> {
+fn read_entities(t: &mut Tokens, what: &str, k: usize, npts: usize) -> Result<(Vec<usize>, Vec<i32>), Error> {
     let n = t.count(&format!("number of {what}"), k + 1)?;
     let mut idx = Vec::with_capacity(n * k);
     let mut refs = Vec::with_capacity(n);
@@ -21,10 +16,7 @@ fn read_entities(
             if v == 0 || v > npts {
                 return Err(t.err_at(
                     t.prev_line(),
-                    format!(
-                        "{what} {} uses vertex {v}, but vertices are numbered 1..={npts}",
-                        i + 1
-                    ),
+                    format!("{what} {} uses vertex {v}, but vertices are numbered 1..={npts}", i + 1),
                 ));
             }
             idx.push(v - 1);
@@ -58,10 +50,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
             "meshversionformatted" => {
                 let v = t.i64("MeshVersionFormatted")?;
                 if !(1..=2).contains(&v) {
-                    return Err(t.err_at(
-                        line,
-                        format!("MeshVersionFormatted {v} not supported (1 or 2)"),
-                    ));
+                    return Err(t.err_at(line, format!("MeshVersionFormatted {v} not supported (1 or 2)")));
                 }
                 saw_version = true;
             }
@@ -139,38 +128,21 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
         return Err(t.err_at(last, "Tetrahedra in a Dimension 2 file"));
     }
     // Ref 0 everywhere means "no labels".
-    let subdomain = if refs.iter().all(|&r| r == 0) {
-        None
-    } else {
-        Some(refs)
-    };
-    Ok(MeshData {
-        dim,
-        cell_type,
-        points,
-        cells,
-        subdomain,
-    })
+    let subdomain = if refs.iter().all(|&r| r == 0) { None } else { Some(refs) };
+    Ok(MeshData { dim, cell_type, points, cells, subdomain })
 }
 
 pub(crate) fn write(m: &MeshData) -> String {
     let n = m.num_cells();
     let bnd = m.boundary_facets();
     let mut s = String::with_capacity(64 * (m.points.len() + n + bnd.len()) + 256);
-    s.push_str(&format!(
-        "MeshVersionFormatted 2\n\nDimension {}\n\n",
-        m.dim
-    ));
+    s.push_str(&format!("MeshVersionFormatted 2\n\nDimension {}\n\n", m.dim));
     s.push_str(&format!("Vertices\n{}\n", m.points.len()));
     for p in &m.points {
         let c: Vec<String> = p[..m.dim].iter().map(|&x| fmt_f64(x)).collect();
         s.push_str(&format!("{} 0\n", c.join(" ")));
     }
-    let cells_kw = if m.cell_type == CellType::Tetra {
-        "Tetrahedra"
-    } else {
-        "Triangles"
-    };
+    let cells_kw = if m.cell_type == CellType::Tetra { "Tetrahedra" } else { "Triangles" };
     s.push_str(&format!("\n{cells_kw}\n{n}\n"));
     for i in 0..n {
         let c: Vec<String> = m.cell(i).iter().map(|v| (v + 1).to_string()).collect();
@@ -178,11 +150,7 @@ pub(crate) fn write(m: &MeshData) -> String {
         s.push_str(&format!("{} {r}\n", c.join(" ")));
     }
     if !bnd.is_empty() {
-        let kw = if m.cell_type == CellType::Tetra {
-            "Triangles"
-        } else {
-            "Edges"
-        };
+        let kw = if m.cell_type == CellType::Tetra { "Triangles" } else { "Edges" };
         s.push_str(&format!("\n{kw}\n{}\n", bnd.len()));
         for f in &bnd {
             let c: Vec<String> = f.iter().map(|v| (v + 1).to_string()).collect();

@@ -81,15 +81,8 @@ pub enum Format {
 
 impl Format {
     /// Every format, in the order the fuzz body tries them.
-    pub const ALL: [Format; 7] = [
-        Format::Json,
-        Format::Vtu,
-        Format::Msh,
-        Format::Medit,
-        Format::Obj,
-        Format::Stl,
-        Format::Ply,
-    ];
+    pub const ALL: [Format; 7] =
+        [Format::Json, Format::Vtu, Format::Msh, Format::Medit, Format::Obj, Format::Stl, Format::Ply];
 
     /// The usual file extension (without the dot).
     pub fn extension(self) -> &'static str {
@@ -106,21 +99,14 @@ impl Format {
 
     /// The format a path's extension names (case-insensitive).
     pub fn from_path(path: &Path) -> Result<Format, Error> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(|e| e.to_ascii_lowercase())
-            .unwrap_or_default();
-        Format::ALL
-            .into_iter()
-            .find(|f| f.extension() == ext)
-            .ok_or_else(|| {
-                Error::Invalid(format!(
-                    "unknown mesh file extension {:?} in {} (expected .json .vtu .msh .mesh .obj .stl .ply)",
-                    ext,
-                    path.display()
-                ))
-            })
+        let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
+        Format::ALL.into_iter().find(|f| f.extension() == ext).ok_or_else(|| {
+            Error::Invalid(format!(
+                "unknown mesh file extension {:?} in {} (expected .json .vtu .msh .mesh .obj .stl .ply)",
+                ext,
+                path.display()
+            ))
+        })
     }
 }
 
@@ -136,37 +122,23 @@ impl MeshData {
         }
         let k = self.cell_type.nodes();
         if self.cells.len() % k != 0 {
-            return bad(format!(
-                "cells has {} entries, not a multiple of {k}",
-                self.cells.len()
-            ));
+            return bad(format!("cells has {} entries, not a multiple of {k}", self.cells.len()));
         }
         for (i, p) in self.points.iter().enumerate() {
             if !p.iter().all(|c| c.is_finite()) {
                 return bad(format!("point {i} has a non-finite coordinate {p:?}"));
             }
             if self.dim == 2 && p[2] != 0.0 {
-                return bad(format!(
-                    "point {i} of a 2-D mesh has z = {} (must be 0)",
-                    p[2]
-                ));
+                return bad(format!("point {i} of a 2-D mesh has z = {} (must be 0)", p[2]));
             }
         }
         let n = self.points.len();
         if let Some(j) = self.cells.iter().position(|&v| v >= n) {
-            return bad(format!(
-                "cell {} uses node {} but there are {n} points",
-                j / k,
-                self.cells[j]
-            ));
+            return bad(format!("cell {} uses node {} but there are {n} points", j / k, self.cells[j]));
         }
         if let Some(s) = &self.subdomain {
             if s.len() != self.num_cells() {
-                return bad(format!(
-                    "{} subdomain labels for {} cells",
-                    s.len(),
-                    self.num_cells()
-                ));
+                return bad(format!("{} subdomain labels for {} cells", s.len(), self.num_cells()));
             }
         }
         Ok(())
@@ -175,17 +147,13 @@ impl MeshData {
     /// Facets (edges of triangles, faces of tets) that belong to one cell only, oriented
     /// outward from that cell, in order of first appearance: the boundary files record.
     pub fn boundary_facets(&self) -> Vec<Vec<usize>> {
-        let faces: Vec<Vec<usize>> = (0..self.num_cells())
-            .flat_map(|i| cell_facets(self.cell_type, self.cell(i)))
-            .collect();
+        let faces: Vec<Vec<usize>> =
+            (0..self.num_cells()).flat_map(|i| cell_facets(self.cell_type, self.cell(i))).collect();
         let mut count: HashMap<Vec<usize>, u32> = HashMap::with_capacity(faces.len());
         for f in &faces {
             *count.entry(sorted(f)).or_insert(0) += 1;
         }
-        faces
-            .into_iter()
-            .filter(|f| count[&sorted(f)] == 1)
-            .collect()
+        faces.into_iter().filter(|f| count[&sorted(f)] == 1).collect()
     }
 }
 
@@ -193,12 +161,9 @@ impl MeshData {
 pub(crate) fn cell_facets(ct: CellType, c: &[usize]) -> Vec<Vec<usize>> {
     match ct {
         CellType::Triangle => vec![vec![c[0], c[1]], vec![c[1], c[2]], vec![c[2], c[0]]],
-        CellType::Tetra => vec![
-            vec![c[1], c[2], c[3]],
-            vec![c[0], c[3], c[2]],
-            vec![c[0], c[1], c[3]],
-            vec![c[0], c[2], c[1]],
-        ],
+        CellType::Tetra => {
+            vec![vec![c[1], c[2], c[3]], vec![c[0], c[3], c[2]], vec![c[0], c[1], c[3]], vec![c[0], c[2], c[1]]]
+        }
     }
 }
 
@@ -211,10 +176,8 @@ pub(crate) fn sorted(f: &[usize]) -> Vec<usize> {
 /// Reads a mesh file, choosing the format from the extension.
 pub fn read_mesh(path: &Path) -> Result<MeshData, Error> {
     let format = Format::from_path(path)?;
-    let bytes = std::fs::read(path).map_err(|e| Error::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })?;
+    let bytes =
+        std::fs::read(path).map_err(|e| Error::Io { path: path.display().to_string(), message: e.to_string() })?;
     read_named(&bytes, format, &path.display().to_string())
 }
 
@@ -222,10 +185,7 @@ pub fn read_mesh(path: &Path) -> Result<MeshData, Error> {
 pub fn write_mesh(path: &Path, mesh: &MeshData) -> Result<(), Error> {
     let format = Format::from_path(path)?;
     let bytes = write_mesh_bytes(mesh, format)?;
-    std::fs::write(path, bytes).map_err(|e| Error::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })
+    std::fs::write(path, bytes).map_err(|e| Error::Io { path: path.display().to_string(), message: e.to_string() })
 }
 
 /// Reads a mesh from memory (errors name the source `<memory>`).
@@ -250,10 +210,7 @@ pub fn write_mesh_bytes(mesh: &MeshData, format: Format) -> Result<Vec<u8>, Erro
 
 fn read_named(bytes: &[u8], format: Format, name: &str) -> Result<MeshData, Error> {
     let s = std::str::from_utf8(bytes).map_err(|e| {
-        let line = 1 + bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count();
+        let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
         Error::Parse {
             path: name.to_string(),
             line,
@@ -270,11 +227,7 @@ fn read_named(bytes: &[u8], format: Format, name: &str) -> Result<MeshData, Erro
         Format::Ply => surface::read_ply(s, name)?,
     };
     // Readers check as they go; this catches anything they missed, still as a parse error.
-    m.validate().map_err(|e| Error::Parse {
-        path: name.to_string(),
-        line: 0,
-        message: e.to_string(),
-    })?;
+    m.validate().map_err(|e| Error::Parse { path: name.to_string(), line: 0, message: e.to_string() })?;
     Ok(m)
 }
 
@@ -286,10 +239,7 @@ pub fn fuzz_read_all(data: &[u8]) {
             let bytes = write_mesh_bytes(&m, format)
                 .unwrap_or_else(|e| panic!("{format:?}: writing what was read failed: {e}"));
             let back = read_mesh_bytes(&bytes, format).unwrap_or_else(|e| {
-                panic!(
-                    "{format:?}: reading our own output failed: {e}\n{}",
-                    String::from_utf8_lossy(&bytes)
-                )
+                panic!("{format:?}: reading our own output failed: {e}\n{}", String::from_utf8_lossy(&bytes))
             });
             assert_eq!(m, back, "{format:?}: round trip changed the mesh");
         }

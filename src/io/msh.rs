@@ -60,16 +60,10 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
             "MeshFormat" => {
                 let v = t.next("version")?;
                 if v != "4.1" {
-                    return Err(t.err_at(
-                        t.prev_line(),
-                        format!("msh version {v} not supported (only 4.1 ASCII)"),
-                    ));
+                    return Err(t.err_at(t.prev_line(), format!("msh version {v} not supported (only 4.1 ASCII)")));
                 }
                 if t.i64("file type")? != 0 {
-                    return Err(t.err_at(
-                        t.prev_line(),
-                        "binary msh not supported (file type must be 0)",
-                    ));
+                    return Err(t.err_at(t.prev_line(), "binary msh not supported (file type must be 0)"));
                 }
                 t.i64("data size")?;
                 saw_format = true;
@@ -83,9 +77,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                         return Err(t.err_at(line, "a physical name needs: dimension tag \"name\""));
                     }
                     let num = |x: &str| {
-                        x.parse::<i64>().map_err(|_| {
-                            t.err_at(line, format!("physical name: {x:?} is not an integer"))
-                        })
+                        x.parse::<i64>().map_err(|_| t.err_at(line, format!("physical name: {x:?} is not an integer")))
                     };
                     let (d, tag) = (num(toks[0])?, num(toks[1])?);
                     let nm = toks[2..].join(" ");
@@ -137,11 +129,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                     let extra = match (param, edim) {
                         (0, _) => 0,
                         (1, 0..=3) => edim as usize,
-                        _ => {
-                            return Err(
-                                t.err_at(t.prev_line(), "bad parametric flag or entity dimension")
-                            )
-                        }
+                        _ => return Err(t.err_at(t.prev_line(), "bad parametric flag or entity dimension")),
                     };
                     let n = t.count("number of nodes in block", 4 + extra)?;
                     let first = points.len();
@@ -155,18 +143,13 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                             t.f64("parametric coordinate")?;
                         }
                         if node_index.insert(tag, first + k).is_some() {
-                            return Err(
-                                t.err_at(t.prev_line(), format!("node tag {tag} appears twice"))
-                            );
+                            return Err(t.err_at(t.prev_line(), format!("node tag {tag} appears twice")));
                         }
                         points.push(p);
                     }
                 }
                 if points.len() != total {
-                    return Err(t.err(format!(
-                        "$Nodes header says {total} nodes but the blocks hold {}",
-                        points.len()
-                    )));
+                    return Err(t.err(format!("$Nodes header says {total} nodes but the blocks hold {}", points.len())));
                 }
             }
             "Elements" => {
@@ -179,9 +162,8 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                     let edim = t.i64("entity dimension")?;
                     let etag = t.i64("entity tag")?;
                     let ty = t.i64("element type")?;
-                    let k = nodes_of_type(ty).ok_or_else(|| {
-                        t.err_at(t.prev_line(), format!("unknown element type {ty}"))
-                    })?;
+                    let k = nodes_of_type(ty)
+                        .ok_or_else(|| t.err_at(t.prev_line(), format!("unknown element type {ty}")))?;
                     let n = t.count("number of elements in block", k + 1)?;
                     seen += n;
                     for _ in 0..n {
@@ -205,9 +187,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                     }
                 }
                 if seen != total {
-                    return Err(t.err(format!(
-                        "$Elements header says {total} elements but the blocks hold {seen}"
-                    )));
+                    return Err(t.err(format!("$Elements header says {total} elements but the blocks hold {seen}")));
                 }
             }
             _ => {
@@ -233,17 +213,10 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
         return Err(t.err_at(last, "empty file: no $MeshFormat"));
     }
     let want = if elems.iter().any(|e| e.1 == 4) { 4 } else { 2 };
-    let cell_type = if want == 4 {
-        CellType::Tetra
-    } else {
-        CellType::Triangle
-    };
+    let cell_type = if want == 4 { CellType::Tetra } else { CellType::Triangle };
     let mut kept: Vec<_> = elems.into_iter().filter(|e| e.1 == want).collect();
     if kept.is_empty() {
-        return Err(t.err_at(
-            last,
-            "no triangles (type 2) or tetrahedra (type 4) in the file",
-        ));
+        return Err(t.err_at(last, "no triangles (type 2) or tetrahedra (type 4) in the file"));
     }
     // Element tags give the cell order (our writer groups cells by subdomain).
     kept.sort_by_key(|e| e.0);
@@ -262,23 +235,13 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                 *etag
             }
         };
-        let label = i32::try_from(label).map_err(|_| {
-            t.err_at(
-                last,
-                format!("subdomain tag {label} does not fit in 32 bits"),
-            )
-        })?;
+        let label = i32::try_from(label)
+            .map_err(|_| t.err_at(last, format!("subdomain tag {label} does not fit in 32 bits")))?;
         labels.push(label);
     }
     let plain = plain && labels.iter().all(|&l| l == labels[0]);
     let dim = settle_dim(&mut points, cell_type);
-    Ok(MeshData {
-        dim,
-        cell_type,
-        points,
-        cells,
-        subdomain: if plain { None } else { Some(labels) },
-    })
+    Ok(MeshData { dim, cell_type, points, cells, subdomain: if plain { None } else { Some(labels) } })
 }
 
 fn bbox<'a>(pts: impl Iterator<Item = &'a [f64; 3]>) -> String {
@@ -311,10 +274,7 @@ pub(crate) fn write(m: &MeshData) -> String {
     let bnd = m.boundary_facets();
     let mut s = String::with_capacity(64 * (m.points.len() + n + bnd.len()) + 1024);
     s.push_str("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$PhysicalNames\n");
-    s.push_str(&format!(
-        "{}\n",
-        groups.len() + usize::from(!bnd.is_empty())
-    ));
+    s.push_str(&format!("{}\n", groups.len() + usize::from(!bnd.is_empty())));
     if !bnd.is_empty() {
         s.push_str(&format!("{} 1 \"boundary\"\n", cdim - 1));
     }
@@ -331,10 +291,7 @@ pub(crate) fn write(m: &MeshData) -> String {
     if !bnd.is_empty() {
         counts[cdim - 1] = 1;
     }
-    s.push_str(&format!(
-        "{} {} {} {}\n",
-        counts[0], counts[1], counts[2], counts[3]
-    ));
+    s.push_str(&format!("{} {} {} {}\n", counts[0], counts[1], counts[2], counts[3]));
     if !bnd.is_empty() {
         let bb = bbox(bnd.iter().flatten().map(|&v| &m.points[v]));
         s.push_str(&format!("1 {bb} 1 1 0\n"));
@@ -353,21 +310,13 @@ pub(crate) fn write(m: &MeshData) -> String {
             s.push_str(&format!("{i}\n"));
         }
         for p in &m.points {
-            s.push_str(&format!(
-                "{} {} {}\n",
-                fmt_f64(p[0]),
-                fmt_f64(p[1]),
-                fmt_f64(p[2])
-            ));
+            s.push_str(&format!("{} {} {}\n", fmt_f64(p[0]), fmt_f64(p[1]), fmt_f64(p[2])));
         }
     }
     s.push_str("$EndNodes\n$Elements\n");
     let nblocks = groups.len() + usize::from(!bnd.is_empty());
     let total = n + bnd.len();
-    s.push_str(&format!(
-        "{nblocks} {total} {} {total}\n",
-        if total == 0 { 0 } else { 1 }
-    ));
+    s.push_str(&format!("{nblocks} {total} {} {total}\n", if total == 0 { 0 } else { 1 }));
     // Cells keep tags 1..=n in their original order so a reader can restore it.
     for (e, cs) in groups.values().enumerate() {
         s.push_str(&format!("{cdim} {} {cty} {}\n", e + 1, cs.len()));

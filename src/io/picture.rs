@@ -55,11 +55,7 @@ fn quality_color(q: f64) -> Rgb {
         (0.8, [166, 217, 106]),
         (1.0, [26, 152, 80]),
     ];
-    let q = if q.is_finite() {
-        q.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let q = if q.is_finite() { q.clamp(0.0, 1.0) } else { 0.0 };
     for w in STOPS.windows(2) {
         let ((q0, c0), (q1, c1)) = (w[0], w[1]);
         if q <= q1 {
@@ -79,11 +75,7 @@ fn shade(c: Rgb, i: f64) -> Rgb {
 }
 
 fn tri_quality(p: [DVec3; 3]) -> f64 {
-    triangle_q_from_lengths(
-        p[1].distance(p[2]),
-        p[2].distance(p[0]),
-        p[0].distance(p[1]),
-    )
+    triangle_q_from_lengths(p[1].distance(p[2]), p[2].distance(p[0]), p[0].distance(p[1]))
 }
 
 fn pt(m: &MeshData, i: usize) -> DVec3 {
@@ -97,9 +89,7 @@ fn qualities(m: &MeshData) -> Vec<f64> {
             let c = m.cell(i);
             match m.cell_type {
                 CellType::Triangle => tri_quality([pt(m, c[0]), pt(m, c[1]), pt(m, c[2])]),
-                CellType::Tetra => {
-                    tet_radius_ratio([pt(m, c[0]), pt(m, c[1]), pt(m, c[2]), pt(m, c[3])])
-                }
+                CellType::Tetra => tet_radius_ratio([pt(m, c[0]), pt(m, c[1]), pt(m, c[2]), pt(m, c[3])]),
             }
         })
         .collect()
@@ -116,13 +106,7 @@ struct Layout {
 
 impl Layout {
     fn new(w: f32) -> Self {
-        Layout {
-            w,
-            margin: 0.03 * w,
-            title_h: 0.06 * w,
-            hist_h: 0.25 * w,
-            legend_w: 0.16 * w,
-        }
+        Layout { w, margin: 0.03 * w, title_h: 0.06 * w, hist_h: 0.25 * w, legend_w: 0.16 * w }
     }
 }
 
@@ -157,20 +141,12 @@ fn flat_3d(m: &MeshData, q: &[f64]) -> Flat {
         CellType::Triangle => {
             for i in 0..m.num_cells() {
                 let c = m.cell(i);
-                faces.push((
-                    [pt(m, c[0]), pt(m, c[1]), pt(m, c[2])],
-                    quality_color(q[i]),
-                    true,
-                ));
+                faces.push(([pt(m, c[0]), pt(m, c[1]), pt(m, c[2])], quality_color(q[i]), true));
             }
         }
         CellType::Tetra => {
-            let (lo, hi) = m
-                .points
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
-                    (a.min(p[0]), b.max(p[0]))
-                });
+            let (lo, hi) =
+                m.points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p[0]), b.max(p[0])));
             let mid = 0.5 * (lo + hi);
             let mut total: HashMap<Vec<usize>, u32> = HashMap::new();
             let mut kept: HashMap<Vec<usize>, u32> = HashMap::new();
@@ -192,11 +168,7 @@ fn flat_3d(m: &MeshData, q: &[f64]) -> Flat {
                     if kept[&s] != 1 {
                         continue;
                     }
-                    let color = if total[&s] == 1 {
-                        [170, 190, 220]
-                    } else {
-                        quality_color(q[i])
-                    };
+                    let color = if total[&s] == 1 { [170, 190, 220] } else { quality_color(q[i]) };
                     faces.push(([pt(m, f[0]), pt(m, f[1]), pt(m, f[2])], color, false));
                 }
             }
@@ -209,34 +181,22 @@ fn flat_3d(m: &MeshData, q: &[f64]) -> Flat {
         if !two_sided && facing <= 0.0 {
             continue; // back face of a closed surface
         }
-        let lambert = if two_sided {
-            n.dot(light).abs()
-        } else {
-            n.dot(light).max(0.0)
-        };
+        let lambert = if two_sided { n.dot(light).abs() } else { n.dot(light).max(0.0) };
         let depth = (p[0] + p[1] + p[2]).dot(eye) / 3.0;
         let s = p.map(|x| [x.dot(right), x.dot(up)]);
         drawn.push((depth, s, shade(color, 0.3 + 0.7 * lambert)));
     }
     drawn.sort_by(|a, b| a.0.total_cmp(&b.0));
-    Flat {
-        tris: drawn.into_iter().map(|(_, s, c)| (s, c)).collect(),
-    }
+    Flat { tris: drawn.into_iter().map(|(_, s, c)| (s, c)).collect() }
 }
 
 fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
     m.validate()?;
     if m.num_cells() == 0 {
-        return Err(Error::InvalidMesh(
-            "nothing to draw: the mesh has no cells".into(),
-        ));
+        return Err(Error::InvalidMesh("nothing to draw: the mesh has no cells".into()));
     }
     let q = qualities(m);
-    let flat = if m.dim == 2 {
-        flat_2d(m, &q)
-    } else {
-        flat_3d(m, &q)
-    };
+    let flat = if m.dim == 2 { flat_2d(m, &q) } else { flat_3d(m, &q) };
     let l = Layout::new(width);
     let mut prims = Vec::new();
     prims.push(Prim::Text {
@@ -270,20 +230,9 @@ fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
     let ncells = flat.tris.len().max(1) as f32;
     let edge_w = (0.0015 * l.w * (2000.0 / ncells).sqrt().clamp(0.3, 1.0)).max(0.25);
     for (t, color) in &flat.tris {
-        let pts = t
-            .iter()
-            .map(|p| {
-                [
-                    (x0 + scale * (p[0] - lo[0])) as f32,
-                    (y0 + scale * (hi[1] - p[1])) as f32,
-                ]
-            })
-            .collect();
-        prims.push(Prim::Poly {
-            pts,
-            fill: *color,
-            stroke: Some(([40, 40, 50], edge_w)),
-        });
+        let pts =
+            t.iter().map(|p| [(x0 + scale * (p[0] - lo[0])) as f32, (y0 + scale * (hi[1] - p[1])) as f32]).collect();
+        prims.push(Prim::Poly { pts, fill: *color, stroke: Some(([40, 40, 50], edge_w)) });
     }
 
     // Histogram of quality in 20 bins over [0, 1].
@@ -311,33 +260,13 @@ fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
     }
     let axis = [60, 60, 60];
     let aw = (0.002 * l.w).max(1.0);
-    prims.push(Prim::Line {
-        a: [hx0, top + hh],
-        b: [hx0 + hw, top + hh],
-        color: axis,
-        width: aw,
-    });
-    prims.push(Prim::Line {
-        a: [hx0, top],
-        b: [hx0, top + hh],
-        color: axis,
-        width: aw,
-    });
+    prims.push(Prim::Line { a: [hx0, top + hh], b: [hx0 + hw, top + hh], color: axis, width: aw });
+    prims.push(Prim::Line { a: [hx0, top], b: [hx0, top + hh], color: axis, width: aw });
     let fs = 0.022 * l.w;
     for (v, s) in [(0.0, "0"), (0.5, "0.5"), (1.0, "1")] {
         let x = hx0 + v * hw;
-        prims.push(Prim::Line {
-            a: [x, top + hh],
-            b: [x, top + hh + 0.01 * l.w],
-            color: axis,
-            width: aw,
-        });
-        prims.push(Prim::Text {
-            at: [x, top + hh + 0.035 * l.w],
-            size: fs,
-            anchor: "middle",
-            text: s.into(),
-        });
+        prims.push(Prim::Line { a: [x, top + hh], b: [x, top + hh + 0.01 * l.w], color: axis, width: aw });
+        prims.push(Prim::Text { at: [x, top + hh + 0.035 * l.w], size: fs, anchor: "middle", text: s.into() });
     }
     prims.push(Prim::Text {
         at: [hx0 - 0.01 * l.w, top + 0.02 * l.w],
@@ -365,13 +294,7 @@ fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
     for k in 0..steps {
         let v = (k as f64 + 0.5) / steps as f64;
         let y = top + hh * (1.0 - (k + 1) as f32 / steps as f32);
-        prims.push(Prim::Rect {
-            x: lx,
-            y,
-            w: lw,
-            h: hh / steps as f32 + 0.5,
-            fill: quality_color(v),
-        });
+        prims.push(Prim::Rect { x: lx, y, w: lw, h: hh / steps as f32 + 0.5, fill: quality_color(v) });
     }
     for (v, s) in [(0.0, "0"), (0.5, "0.5"), (1.0, "1")] {
         prims.push(Prim::Text {
@@ -381,21 +304,13 @@ fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
             text: s.into(),
         });
     }
-    prims.push(Prim::Text {
-        at: [lx + 0.5 * lw, top - 0.015 * l.w],
-        size: fs,
-        anchor: "middle",
-        text: name.into(),
-    });
+    prims.push(Prim::Text { at: [lx + 0.5 * lw, top - 0.015 * l.w], size: fs, anchor: "middle", text: name.into() });
     let h = top + hh + 0.1 * l.w;
     Ok(Scene { w: l.w, h, prims })
 }
 
 fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }
 
 fn hex(c: Rgb) -> String {
@@ -403,10 +318,7 @@ fn hex(c: Rgb) -> String {
 }
 
 fn io_err(path: &Path, e: impl std::fmt::Display) -> Error {
-    Error::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    }
+    Error::Io { path: path.display().to_string(), message: e.to_string() }
 }
 
 fn svg_text(sc: &Scene) -> String {
@@ -454,9 +366,7 @@ pub fn write_svg(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Error>
 pub fn write_png(path: &Path, mesh: &MeshData, title: &str, width_px: u32) -> Result<(), Error> {
     use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
     if !(64..=16384).contains(&width_px) {
-        return Err(Error::Invalid(format!(
-            "PNG width {width_px} must be in 64..=16384 pixels"
-        )));
+        return Err(Error::Invalid(format!("PNG width {width_px} must be in 64..=16384 pixels")));
     }
     let sc = build_scene(mesh, title, width_px as f32)?;
     let height = (sc.h.ceil() as u32).clamp(1, 32768);
@@ -482,10 +392,7 @@ pub fn write_png(path: &Path, mesh: &MeshData, title: &str, width_px: u32) -> Re
                 if let Some(path) = pb.finish() {
                     pix.fill_path(&path, &paint_of(*fill), FillRule::Winding, id, None);
                     if let Some((c, w)) = stroke {
-                        let st = Stroke {
-                            width: *w,
-                            ..Stroke::default()
-                        };
+                        let st = Stroke { width: *w, ..Stroke::default() };
                         pix.stroke_path(&path, &paint_of(*c), &st, id, None);
                     }
                 }
@@ -500,10 +407,7 @@ pub fn write_png(path: &Path, mesh: &MeshData, title: &str, width_px: u32) -> Re
                 pb.move_to(a[0], a[1]);
                 pb.line_to(b[0], b[1]);
                 if let Some(path) = pb.finish() {
-                    let st = Stroke {
-                        width: *width,
-                        ..Stroke::default()
-                    };
+                    let st = Stroke { width: *width, ..Stroke::default() };
                     pix.stroke_path(&path, &paint_of(*color), &st, id, None);
                 }
             }

@@ -19,13 +19,7 @@ fn triangles(m: &MeshData) -> (Vec<[usize; 3]>, Option<Vec<i32>>) {
                 .collect(),
             m.subdomain.clone(),
         ),
-        CellType::Tetra => (
-            m.boundary_facets()
-                .into_iter()
-                .map(|f| [f[0], f[1], f[2]])
-                .collect(),
-            None,
-        ),
+        CellType::Tetra => (m.boundary_facets().into_iter().map(|f| [f[0], f[1], f[2]]).collect(), None),
     }
 }
 
@@ -45,13 +39,7 @@ fn finish(
         return Err(perr(path, line, "the file holds no triangles"));
     }
     let dim = settle_dim(&mut points, CellType::Triangle);
-    Ok(MeshData {
-        dim,
-        cell_type: CellType::Triangle,
-        points,
-        cells,
-        subdomain: labelled.then_some(labels),
-    })
+    Ok(MeshData { dim, cell_type: CellType::Triangle, points, cells, subdomain: labelled.then_some(labels) })
 }
 
 pub(crate) fn write_obj(m: &MeshData) -> String {
@@ -59,12 +47,7 @@ pub(crate) fn write_obj(m: &MeshData) -> String {
     let mut s = String::with_capacity(48 * (m.points.len() + tris.len()) + 64);
     s.push_str("# written by trussmesh\n");
     for p in &m.points {
-        s.push_str(&format!(
-            "v {} {} {}\n",
-            fmt_f64(p[0]),
-            fmt_f64(p[1]),
-            fmt_f64(p[2])
-        ));
+        s.push_str(&format!("v {} {} {}\n", fmt_f64(p[0]), fmt_f64(p[1]), fmt_f64(p[2])));
     }
     let mut current = None;
     for (i, t) in tris.iter().enumerate() {
@@ -96,16 +79,9 @@ pub(crate) fn read_obj(s: &str, path: &str) -> Result<MeshData, Error> {
             "v" => {
                 let mut p = [0.0; 3];
                 for c in &mut p {
-                    let tok = it
-                        .next()
-                        .ok_or_else(|| perr(path, line, "a vertex needs x y z"))?;
-                    *c = parse_f64(tok).ok_or_else(|| {
-                        perr(
-                            path,
-                            line,
-                            format!("vertex coordinate {tok:?} is not a finite number"),
-                        )
-                    })?;
+                    let tok = it.next().ok_or_else(|| perr(path, line, "a vertex needs x y z"))?;
+                    *c = parse_f64(tok)
+                        .ok_or_else(|| perr(path, line, format!("vertex coordinate {tok:?} is not a finite number")))?;
                 }
                 points.push(p);
             }
@@ -113,18 +89,13 @@ pub(crate) fn read_obj(s: &str, path: &str) -> Result<MeshData, Error> {
                 let mut idx = Vec::new();
                 for tok in it {
                     let v = tok.split('/').next().unwrap_or("");
-                    let v: i64 = v.parse().map_err(|_| {
-                        perr(path, line, format!("face index {tok:?} is not an integer"))
-                    })?;
+                    let v: i64 =
+                        v.parse().map_err(|_| perr(path, line, format!("face index {tok:?} is not an integer")))?;
                     let n = points.len() as i64;
                     // Negative indices count back from the latest vertex.
                     let j = if v > 0 { v - 1 } else { n + v };
                     if v == 0 || j < 0 || j >= n {
-                        return Err(perr(
-                            path,
-                            line,
-                            format!("face index {v} is out of range ({n} vertices so far)"),
-                        ));
+                        return Err(perr(path, line, format!("face index {v} is out of range ({n} vertices so far)")));
                     }
                     idx.push(j as usize);
                 }
@@ -176,20 +147,10 @@ pub(crate) fn write_stl(m: &MeshData) -> String {
             open = Some(name);
         }
         let n = normal(m, t);
-        s.push_str(&format!(
-            "  facet normal {} {} {}\n    outer loop\n",
-            fmt_f64(n[0]),
-            fmt_f64(n[1]),
-            fmt_f64(n[2])
-        ));
+        s.push_str(&format!("  facet normal {} {} {}\n    outer loop\n", fmt_f64(n[0]), fmt_f64(n[1]), fmt_f64(n[2])));
         for &v in t {
             let p = m.points[v];
-            s.push_str(&format!(
-                "      vertex {} {} {}\n",
-                fmt_f64(p[0]),
-                fmt_f64(p[1]),
-                fmt_f64(p[2])
-            ));
+            s.push_str(&format!("      vertex {} {} {}\n", fmt_f64(p[0]), fmt_f64(p[1]), fmt_f64(p[2])));
         }
         s.push_str("    endloop\n  endfacet\n");
     }
@@ -212,9 +173,7 @@ fn same_line_rest<'a>(t: &mut Tokens<'a>) -> Vec<&'a str> {
 pub(crate) fn read_stl(s: &str, path: &str) -> Result<MeshData, Error> {
     let mut t = Tokens::new(s, path, None, 1);
     if t.peek() != Some("solid") {
-        return Err(t.err(
-            "not an ASCII STL file: it must start with 'solid' (binary STL is not supported)",
-        ));
+        return Err(t.err("not an ASCII STL file: it must start with 'solid' (binary STL is not supported)"));
     }
     let mut index: HashMap<[u64; 3], usize> = HashMap::new();
     let mut points = Vec::new();
@@ -234,12 +193,7 @@ pub(crate) fn read_stl(s: &str, path: &str) -> Result<MeshData, Error> {
                     break;
                 }
                 "facet" => {}
-                x => {
-                    return Err(t.err_at(
-                        t.prev_line(),
-                        format!("expected 'facet' or 'endsolid', found {x:?}"),
-                    ))
-                }
+                x => return Err(t.err_at(t.prev_line(), format!("expected 'facet' or 'endsolid', found {x:?}"))),
             }
             t.expect("normal")?;
             for _ in 0..3 {
@@ -274,21 +228,13 @@ pub(crate) fn write_ply(m: &MeshData) -> String {
         "element vertex {}\nproperty double x\nproperty double y\nproperty double z\n",
         m.points.len()
     ));
-    s.push_str(&format!(
-        "element face {}\nproperty list uchar int vertex_indices\n",
-        tris.len()
-    ));
+    s.push_str(&format!("element face {}\nproperty list uchar int vertex_indices\n", tris.len()));
     if labels.is_some() {
         s.push_str("property int subdomain\n");
     }
     s.push_str("end_header\n");
     for p in &m.points {
-        s.push_str(&format!(
-            "{} {} {}\n",
-            fmt_f64(p[0]),
-            fmt_f64(p[1]),
-            fmt_f64(p[2])
-        ));
+        s.push_str(&format!("{} {} {}\n", fmt_f64(p[0]), fmt_f64(p[1]), fmt_f64(p[2])));
     }
     for (i, t) in tris.iter().enumerate() {
         s.push_str(&format!("3 {} {} {}", t[0], t[1], t[2]));
@@ -336,20 +282,11 @@ pub(crate) fn read_ply(s: &str, path: &str) -> Result<MeshData, Error> {
                 if w.len() != 3 {
                     return Err(bad("an element line needs: element <name> <count>"));
                 }
-                let count = w[2]
-                    .parse::<usize>()
-                    .map_err(|_| bad("element count is not a non-negative integer"))?;
-                elements.push(PlyElement {
-                    name: w[1].to_string(),
-                    count,
-                    props: Vec::new(),
-                    line: lineno,
-                });
+                let count = w[2].parse::<usize>().map_err(|_| bad("element count is not a non-negative integer"))?;
+                elements.push(PlyElement { name: w[1].to_string(), count, props: Vec::new(), line: lineno });
             }
             Some("property") => {
-                let e = elements
-                    .last_mut()
-                    .ok_or_else(|| bad("property before any element"))?;
+                let e = elements.last_mut().ok_or_else(|| bad("property before any element"))?;
                 match w.as_slice() {
                     [_, "list", _, _, name] => e.props.push((name.to_string(), true)),
                     [_, ty, name] if *ty != "list" => e.props.push((name.to_string(), false)),
@@ -364,11 +301,7 @@ pub(crate) fn read_ply(s: &str, path: &str) -> Result<MeshData, Error> {
         }
     }
     if !ended {
-        return Err(perr(
-            path,
-            lineno.max(1),
-            "PLY header has no end_header (truncated?)",
-        ));
+        return Err(perr(path, lineno.max(1), "PLY header has no end_header (truncated?)"));
     }
     let mut t = Tokens::new(&s[consumed..], path, None, lineno + 1);
     let mut points: Vec<[f64; 3]> = Vec::new();
@@ -382,10 +315,7 @@ pub(crate) fn read_ply(s: &str, path: &str) -> Result<MeshData, Error> {
             return Err(perr(
                 path,
                 e.line,
-                format!(
-                    "element {} claims {} entries, more than the file holds",
-                    e.name, e.count
-                ),
+                format!("element {} claims {} entries, more than the file holds", e.name, e.count),
             ));
         }
         match e.name.as_str() {
@@ -393,11 +323,7 @@ pub(crate) fn read_ply(s: &str, path: &str) -> Result<MeshData, Error> {
                 saw_vertex = true;
                 let pos = |n: &str| e.props.iter().position(|p| p.0 == n && !p.1);
                 let (Some(ix), Some(iy), Some(iz)) = (pos("x"), pos("y"), pos("z")) else {
-                    return Err(perr(
-                        path,
-                        e.line,
-                        "vertex element needs x, y and z properties",
-                    ));
+                    return Err(perr(path, e.line, "vertex element needs x, y and z properties"));
                 };
                 points.reserve(e.count);
                 for _ in 0..e.count {
@@ -425,9 +351,7 @@ pub(crate) fn read_ply(s: &str, path: &str) -> Result<MeshData, Error> {
                     .props
                     .iter()
                     .position(|p| p.1 && (p.0 == "vertex_indices" || p.0 == "vertex_index"))
-                    .ok_or_else(|| {
-                        perr(path, e.line, "face element needs a vertex_indices list")
-                    })?;
+                    .ok_or_else(|| perr(path, e.line, "face element needs a vertex_indices list"))?;
                 let si = e.props.iter().position(|p| p.0 == "subdomain" && !p.1);
                 labelled |= si.is_some();
                 for _ in 0..e.count {
@@ -437,19 +361,14 @@ pub(crate) fn read_ply(s: &str, path: &str) -> Result<MeshData, Error> {
                         if k == vi {
                             let n = t.count("face vertex count", 1)?;
                             if n < 3 {
-                                return Err(
-                                    t.err_at(t.prev_line(), "a face needs at least 3 vertices")
-                                );
+                                return Err(t.err_at(t.prev_line(), "a face needs at least 3 vertices"));
                             }
                             for _ in 0..n {
                                 let v = t.usize("face vertex index")?;
                                 if v >= points.len() {
                                     return Err(t.err_at(
                                         t.prev_line(),
-                                        format!(
-                                            "face uses vertex {v} but there are {} vertices",
-                                            points.len()
-                                        ),
+                                        format!("face uses vertex {v} but there are {} vertices", points.len()),
                                     ));
                                 }
                                 idx.push(v);

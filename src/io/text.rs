@@ -12,11 +12,7 @@ pub(crate) fn fmt_f64(x: f64) -> String {
 
 /// A parse error at `line` of `path`.
 pub(crate) fn perr(path: &str, line: usize, message: impl Into<String>) -> Error {
-    Error::Parse {
-        path: path.to_string(),
-        line,
-        message: message.into(),
-    }
+    Error::Parse { path: path.to_string(), line, message: message.into() }
 }
 
 /// Whitespace-separated tokens with their 1-based line numbers.
@@ -42,12 +38,7 @@ impl<'a> Tokens<'a> {
                 toks.push((first_line + i, t));
             }
         }
-        Tokens {
-            toks,
-            pos: 0,
-            last_line,
-            path,
-        }
+        Tokens { toks, pos: 0, last_line, path }
     }
 
     /// Tokens not yet consumed: the cap for any count a header claims.
@@ -101,38 +92,23 @@ impl<'a> Tokens<'a> {
 
     pub fn f64(&mut self, what: &str) -> Result<f64, Error> {
         let t = self.next(what)?;
-        parse_f64(t).ok_or_else(|| {
-            self.err_at(
-                self.prev_line(),
-                format!("{what}: {t:?} is not a finite number"),
-            )
-        })
+        parse_f64(t).ok_or_else(|| self.err_at(self.prev_line(), format!("{what}: {t:?} is not a finite number")))
     }
 
     pub fn i64(&mut self, what: &str) -> Result<i64, Error> {
         let t = self.next(what)?;
-        t.parse::<i64>()
-            .map_err(|_| self.err_at(self.prev_line(), format!("{what}: {t:?} is not an integer")))
+        t.parse::<i64>().map_err(|_| self.err_at(self.prev_line(), format!("{what}: {t:?} is not an integer")))
     }
 
     pub fn i32(&mut self, what: &str) -> Result<i32, Error> {
         let v = self.i64(what)?;
-        i32::try_from(v).map_err(|_| {
-            self.err_at(
-                self.prev_line(),
-                format!("{what}: {v} does not fit in 32 bits"),
-            )
-        })
+        i32::try_from(v).map_err(|_| self.err_at(self.prev_line(), format!("{what}: {v} does not fit in 32 bits")))
     }
 
     pub fn usize(&mut self, what: &str) -> Result<usize, Error> {
         let t = self.next(what)?;
-        t.parse::<usize>().map_err(|_| {
-            self.err_at(
-                self.prev_line(),
-                format!("{what}: {t:?} is not a non-negative integer"),
-            )
-        })
+        t.parse::<usize>()
+            .map_err(|_| self.err_at(self.prev_line(), format!("{what}: {t:?} is not a non-negative integer")))
     }
 
     /// A count of items of `per` tokens each, rejected when the rest of the file cannot hold it.
@@ -141,9 +117,7 @@ impl<'a> Tokens<'a> {
         if n.saturating_mul(per.max(1)) > self.remaining() {
             return Err(self.err_at(
                 self.prev_line(),
-                format!(
-                    "{what} {n} is more than the rest of the file holds (truncated or garbled)"
-                ),
+                format!("{what} {n} is more than the rest of the file holds (truncated or garbled)"),
             ));
         }
         Ok(n)

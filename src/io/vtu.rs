@@ -26,10 +26,7 @@ impl LineCounter<'_> {
     fn at(&mut self, pos: usize) -> usize {
         let pos = pos.min(self.s.len());
         if pos > self.pos {
-            self.line += self.s[self.pos..pos]
-                .iter()
-                .filter(|&&b| b == b'\n')
-                .count();
+            self.line += self.s[self.pos..pos].iter().filter(|&&b| b == b'\n').count();
             self.pos = pos;
         }
         self.line
@@ -49,11 +46,7 @@ fn local(e: &BytesStart) -> String {
 
 pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
     let mut r = Reader::from_str(s);
-    let mut lc = LineCounter {
-        s: s.as_bytes(),
-        pos: 0,
-        line: 1,
-    };
+    let mut lc = LineCounter { s: s.as_bytes(), pos: 0, line: 1 };
     let mut stack: Vec<String> = Vec::new();
     let mut arrays: Vec<Array> = Vec::new();
     let mut current: Option<Array> = None;
@@ -76,11 +69,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                     saw_vtkfile = true;
                     let t = attr(&e, "type").unwrap_or_default();
                     if t != "UnstructuredGrid" {
-                        return Err(perr(
-                            path,
-                            line,
-                            format!("VTKFile type {t:?} is not UnstructuredGrid"),
-                        ));
+                        return Err(perr(path, line, format!("VTKFile type {t:?} is not UnstructuredGrid")));
                     }
                     if attr(&e, "compressor").is_some() {
                         return Err(perr(path, line, "compressed vtu data not supported"));
@@ -89,18 +78,12 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                 "Piece" => {
                     pieces += 1;
                     if pieces > 1 {
-                        return Err(perr(
-                            path,
-                            line,
-                            "vtu files with several pieces are not supported",
-                        ));
+                        return Err(perr(path, line, "vtu files with several pieces are not supported"));
                     }
                     let num = |k: &str| -> Result<usize, Error> {
                         attr(&e, k)
                             .and_then(|v| v.trim().parse::<usize>().ok())
-                            .ok_or_else(|| {
-                                perr(path, line, format!("Piece needs a valid {k} attribute"))
-                            })
+                            .ok_or_else(|| perr(path, line, format!("Piece needs a valid {k} attribute")))
                     };
                     header = Some((num("NumberOfPoints")?, num("NumberOfCells")?, line));
                 }
@@ -126,9 +109,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                             .parse::<usize>()
                             .ok()
                             .filter(|&c| (1..=64).contains(&c))
-                            .ok_or_else(|| {
-                                perr(path, line, format!("bad NumberOfComponents {v:?}"))
-                            })?,
+                            .ok_or_else(|| perr(path, line, format!("bad NumberOfComponents {v:?}")))?,
                     };
                     let a = Array {
                         parent: stack.last().cloned().unwrap_or_default(),
@@ -154,11 +135,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
             Event::End(e) => {
                 let name = String::from_utf8_lossy(e.local_name().as_ref()).into_owned();
                 if stack.pop().as_deref() != Some(name.as_str()) {
-                    return Err(perr(
-                        path,
-                        line,
-                        format!("unexpected closing tag </{name}>"),
-                    ));
+                    return Err(perr(path, line, format!("unexpected closing tag </{name}>")));
                 }
                 if name == "DataArray" {
                     if let Some(a) = current.take() {
@@ -168,9 +145,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
             }
             Event::Text(t) => {
                 if let Some(a) = current.as_mut() {
-                    let txt = t
-                        .unescape()
-                        .map_err(|e| perr(path, line, format!("bad text in DataArray: {e}")))?;
+                    let txt = t.unescape().map_err(|e| perr(path, line, format!("bad text in DataArray: {e}")))?;
                     if a.text.is_empty() {
                         // The array's text starts where its start tag ended.
                         a.line = lc.line - txt.matches('\n').count();
@@ -180,11 +155,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
             }
             Event::CData(_) => {
                 if current.is_some() {
-                    return Err(perr(
-                        path,
-                        line,
-                        "binary/appended vtu data not supported (CDATA)",
-                    ));
+                    return Err(perr(path, line, "binary/appended vtu data not supported (CDATA)"));
                 }
             }
             Event::Eof => break,
@@ -196,28 +167,17 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
         return Err(perr(path, 1, "not a VTK XML file (no VTKFile element)"));
     }
     if !stack.is_empty() {
-        return Err(perr(
-            path,
-            last_line,
-            format!("file ends inside <{}> (truncated)", stack.join("><")),
-        ));
+        return Err(perr(path, last_line, format!("file ends inside <{}> (truncated)", stack.join("><"))));
     }
-    let (npts, ncells, hline) =
-        header.ok_or_else(|| perr(path, last_line, "no Piece element in the vtu file"))?;
+    let (npts, ncells, hline) = header.ok_or_else(|| perr(path, last_line, "no Piece element in the vtu file"))?;
     let find = |parent: &str, name: Option<&str>| {
-        arrays
-            .iter()
-            .find(|a| a.parent == parent && name.map_or(true, |n| a.name == n))
+        arrays.iter().find(|a| a.parent == parent && name.map_or(true, |n| a.name == n))
     };
 
     // Points.
     let pa = find("Points", None).ok_or_else(|| perr(path, hline, "no Points DataArray"))?;
     if pa.components != 3 {
-        return Err(perr(
-            path,
-            pa.line,
-            "Points must have NumberOfComponents=\"3\"",
-        ));
+        return Err(perr(path, pa.line, "Points must have NumberOfComponents=\"3\""));
     }
     let mut t = Tokens::new(&pa.text, path, None, pa.line);
     if t.remaining() != 3 * npts.min(usize::MAX / 3) {
@@ -247,8 +207,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
         Ok(v)
     };
     let get = |name: &str| {
-        find("Cells", Some(name))
-            .ok_or_else(|| perr(path, hline, format!("no Cells DataArray named {name:?}")))
+        find("Cells", Some(name)).ok_or_else(|| perr(path, hline, format!("no Cells DataArray named {name:?}")))
     };
     let conn = ints(get("connectivity")?, "connectivity")?;
     let offa = get("offsets")?;
@@ -259,34 +218,19 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
         return Err(perr(
             path,
             offa.line,
-            format!(
-                "NumberOfCells={ncells} but there are {} offsets and {} types",
-                offs.len(),
-                types.len()
-            ),
+            format!("NumberOfCells={ncells} but there are {} offsets and {} types", offs.len(), types.len()),
         ));
     }
     let has_tets = types.iter().any(|t| t.0 == 10);
-    let cell_type = if has_tets {
-        CellType::Tetra
-    } else {
-        CellType::Triangle
-    };
+    let cell_type = if has_tets { CellType::Tetra } else { CellType::Triangle };
     let want = if has_tets { 10 } else { 5 };
     let mut cells = Vec::new();
     let mut kept = Vec::new();
     let mut prev = 0usize;
     for (i, (&(off, oline), &(ty, tline))) in offs.iter().zip(&types).enumerate() {
-        let off = usize::try_from(off)
-            .ok()
-            .filter(|&o| o >= prev && o <= conn.len())
-            .ok_or_else(|| {
-                perr(
-                    path,
-                    oline,
-                    format!("offset {off} of cell {i} is out of order or past the connectivity"),
-                )
-            })?;
+        let off = usize::try_from(off).ok().filter(|&o| o >= prev && o <= conn.len()).ok_or_else(|| {
+            perr(path, oline, format!("offset {off} of cell {i} is out of order or past the connectivity"))
+        })?;
         let size = off - prev;
         let nodes = &conn[prev..off];
         prev = off;
@@ -295,19 +239,11 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
             10 => 4,
             1..=4 => continue,
             _ => {
-                return Err(perr(
-                    path,
-                    tline,
-                    format!("unsupported VTK cell type {ty} (only 5 triangle and 10 tetra)"),
-                ))
+                return Err(perr(path, tline, format!("unsupported VTK cell type {ty} (only 5 triangle and 10 tetra)")))
             }
         };
         if size != need {
-            return Err(perr(
-                path,
-                oline,
-                format!("cell {i} of type {ty} has {size} nodes, expected {need}"),
-            ));
+            return Err(perr(path, oline, format!("cell {i} of type {ty} has {size} nodes, expected {need}")));
         }
         if ty != want {
             continue;
@@ -316,36 +252,20 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
             let v = usize::try_from(v)
                 .ok()
                 .filter(|&v| v < npts)
-                .ok_or_else(|| {
-                    perr(
-                        path,
-                        vline,
-                        format!("cell {i} uses node {v} but there are {npts} points"),
-                    )
-                })?;
+                .ok_or_else(|| perr(path, vline, format!("cell {i} uses node {v} but there are {npts} points")))?;
             cells.push(v);
         }
         kept.push(i);
     }
     if prev != conn.len() {
-        return Err(perr(
-            path,
-            offa.line,
-            "the last offset does not match the connectivity length",
-        ));
+        return Err(perr(path, offa.line, "the last offset does not match the connectivity length"));
     }
     if cells.is_empty() {
-        return Err(perr(
-            path,
-            hline,
-            "the file holds no triangles or tetrahedra",
-        ));
+        return Err(perr(path, hline, "the file holds no triangles or tetrahedra"));
     }
 
     // Subdomain labels, if any.
-    let sa = ["subdomain", "gmsh:physical", "medit:ref"]
-        .iter()
-        .find_map(|n| find("CellData", Some(n)));
+    let sa = ["subdomain", "gmsh:physical", "medit:ref"].iter().find_map(|n| find("CellData", Some(n)));
     let subdomain = match sa {
         None => None,
         Some(a) => {
@@ -354,11 +274,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                 return Err(perr(
                     path,
                     a.line,
-                    format!(
-                        "CellData {:?} holds {} values for {ncells} cells",
-                        a.name,
-                        t.remaining()
-                    ),
+                    format!("CellData {:?} holds {} values for {ncells} cells", a.name, t.remaining()),
                 ));
             }
             let mut all = Vec::with_capacity(ncells);
@@ -369,31 +285,16 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                     .parse::<i32>()
                     .ok()
                     .or_else(|| {
-                        tok.parse::<f64>()
-                            .ok()
-                            .filter(|f| f.fract() == 0.0 && f.abs() < 2.0e9)
-                            .map(|f| f as i32)
+                        tok.parse::<f64>().ok().filter(|f| f.fract() == 0.0 && f.abs() < 2.0e9).map(|f| f as i32)
                     })
-                    .ok_or_else(|| {
-                        perr(
-                            path,
-                            line,
-                            format!("subdomain label {tok:?} is not a 32-bit integer"),
-                        )
-                    })?;
+                    .ok_or_else(|| perr(path, line, format!("subdomain label {tok:?} is not a 32-bit integer")))?;
                 all.push(v);
             }
             Some(kept.iter().map(|&i| all[i]).collect())
         }
     };
     let dim = settle_dim(&mut points, cell_type);
-    Ok(MeshData {
-        dim,
-        cell_type,
-        points,
-        cells,
-        subdomain,
-    })
+    Ok(MeshData { dim, cell_type, points, cells, subdomain })
 }
 
 pub(crate) fn write(m: &MeshData) -> String {
@@ -401,20 +302,14 @@ pub(crate) fn write(m: &MeshData) -> String {
     let k = m.cell_type.nodes();
     let mut s = String::with_capacity(64 * (m.points.len() + n) + 1024);
     s.push_str("<?xml version=\"1.0\"?>\n");
-    s.push_str("<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n");
+    s.push_str(
+        "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
+    );
     s.push_str("  <UnstructuredGrid>\n");
-    s.push_str(&format!(
-        "    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{n}\">\n",
-        m.points.len()
-    ));
+    s.push_str(&format!("    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{n}\">\n", m.points.len()));
     s.push_str("      <Points>\n        <DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" format=\"ascii\">\n");
     for p in &m.points {
-        s.push_str(&format!(
-            "          {} {} {}\n",
-            fmt_f64(p[0]),
-            fmt_f64(p[1]),
-            fmt_f64(p[2])
-        ));
+        s.push_str(&format!("          {} {} {}\n", fmt_f64(p[0]), fmt_f64(p[1]), fmt_f64(p[2])));
     }
     s.push_str("        </DataArray>\n      </Points>\n      <Cells>\n");
     s.push_str("        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n");
@@ -425,11 +320,7 @@ pub(crate) fn write(m: &MeshData) -> String {
     s.push_str("        </DataArray>\n        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n");
     push_wrapped(&mut s, (1..=n).map(|i| (i * k).to_string()));
     s.push_str("        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n");
-    let ty = if m.cell_type == CellType::Tetra {
-        "10"
-    } else {
-        "5"
-    };
+    let ty = if m.cell_type == CellType::Tetra { "10" } else { "5" };
     push_wrapped(&mut s, (0..n).map(|_| ty.to_string()));
     s.push_str("        </DataArray>\n      </Cells>\n");
     if let Some(sd) = &m.subdomain {

@@ -33,7 +33,10 @@ impl Default for ImageOptions {
 
 /// Grey levels in [0, 1] of a PNG file, row by row from the top, with its width and height.
 pub fn read_png_grey(path: &std::path::Path) -> Result<(Vec<f64>, usize, usize), Error> {
-    let pix = tiny_skia::Pixmap::load_png(path).map_err(|e| Error::Io { path: path.display().to_string(), message: format!("cannot read the PNG image: {e}") })?;
+    let pix = tiny_skia::Pixmap::load_png(path).map_err(|e| Error::Io {
+        path: path.display().to_string(),
+        message: format!("cannot read the PNG image: {e}"),
+    })?;
     let (w, h) = (pix.width() as usize, pix.height() as usize);
     let grey = pix
         .pixels()
@@ -53,7 +56,10 @@ pub fn read_png_grey(path: &std::path::Path) -> Result<(Vec<f64>, usize, usize),
 /// 3 x 3 box filter, padded with outside pixels, reinitialised by fast marching.
 pub fn image_distance(grey: &[f64], w: usize, h: usize, threshold: f64, invert: bool) -> Result<Grid2, Error> {
     if w < 2 || h < 2 || grey.len() != w * h {
-        return Err(Error::Invalid(format!("an image of {w} x {h} pixels with {} values cannot be meshed", grey.len())));
+        return Err(Error::Invalid(format!(
+            "an image of {w} x {h} pixels with {} values cannot be meshed",
+            grey.len()
+        )));
     }
     if !(0.0..=1.0).contains(&threshold) {
         return Err(Error::Invalid(format!("threshold {threshold} is outside [0, 1]")));
@@ -79,7 +85,10 @@ pub fn image_distance(grey: &[f64], w: usize, h: usize, threshold: f64, invert: 
             let mut s = 0.0;
             for dj in -1i64..=1 {
                 for di in -1i64..=1 {
-                    let (ii, jj) = ((i as i64 + di).clamp(0, nx as i64 - 1) as usize, (j as i64 + dj).clamp(0, ny as i64 - 1) as usize);
+                    let (ii, jj) = (
+                        (i as i64 + di).clamp(0, nx as i64 - 1) as usize,
+                        (j as i64 + dj).clamp(0, ny as i64 - 1) as usize,
+                    );
                     s += level(ii, jj);
                 }
             }
@@ -122,13 +131,26 @@ impl Implicit2 for Scaled<'_> {
 /// Meshes the region of an image: distance by fast marching, an automatic size function
 /// (feature size and gradient limiting, seed chapter 4), then [`mesh_2d`].
 pub fn mesh_image(grey: &[f64], w: usize, h: usize, opts: &ImageOptions) -> Result<MeshOutput2, Error> {
-    if !(opts.h0.is_finite() && opts.h0 > 0.0) || !(opts.scale.is_finite() && opts.scale > 0.0) || !(opts.max_ratio >= 1.0) {
-        return Err(Error::BadSize(format!("h0 {} and scale {} must be positive and the size ratio {} at least 1", opts.h0, opts.scale, opts.max_ratio)));
+    if !(opts.h0.is_finite() && opts.h0 > 0.0)
+        || !(opts.scale.is_finite() && opts.scale > 0.0)
+        || !(opts.max_ratio >= 1.0)
+    {
+        return Err(Error::BadSize(format!(
+            "h0 {} and scale {} must be positive and the size ratio {} at least 1",
+            opts.h0, opts.scale, opts.max_ratio
+        )));
     }
     let dist = image_distance(grey, w, h, opts.threshold, opts.invert)?;
     let lo = DVec2::new(-1.0, -1.0);
     let hi = DVec2::new(w as f64 + 1.0, h as f64 + 1.0);
-    let params = SizeParams { k: 0.5 / opts.h0, r: 2.0, g: 0.3, hmin: opts.h0, hmax: opts.h0 * opts.max_ratio, ..SizeParams::default() };
+    let params = SizeParams {
+        k: 0.5 / opts.h0,
+        r: 2.0,
+        g: 0.3,
+        hmin: opts.h0,
+        hmax: opts.h0 * opts.max_ratio,
+        ..SizeParams::default()
+    };
     let size = auto_size_2d(&dist, [lo, hi], 1.0, &params)?;
     let s = opts.scale;
     let domain = Scaled { g: &dist, s };

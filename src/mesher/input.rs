@@ -49,7 +49,10 @@ pub(crate) fn eval_h_floor(opts: &Options2, p: DVec2, floor: f64) -> Result<f64,
 pub(crate) fn eval_h(opts: &Options2, p: DVec2) -> Result<f64, Error> {
     let v = eval_h_floor(opts, p, f64::NEG_INFINITY)?;
     if v <= 0.0 {
-        Err(Error::BadSize(format!("the size function is {v} at ({}, {}) inside the domain; it must be positive", p.x, p.y)))
+        Err(Error::BadSize(format!(
+            "the size function is {v} at ({}, {}) inside the domain; it must be positive",
+            p.x, p.y
+        )))
     } else {
         Ok(v)
     }

@@ -68,7 +68,9 @@ impl Ctx<'_> {
     fn project(&self, p: DVec2) -> Result<Option<DVec2>, Error> {
         match project2(self.domain, p, self.projection, 1e-9 * self.opts.h0, 20) {
             Ok(q) => Ok(Some(q)),
-            Err(ProjectError::NonFinite { value }) => Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, 0.0] }),
+            Err(ProjectError::NonFinite { value }) => {
+                Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, 0.0] })
+            }
             Err(_) => Ok(None),
         }
     }
@@ -91,7 +93,11 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
 
 /// Runs the local strategy from `start` (a previous mesh: moving meshes and remeshing, seed
 /// chapter 5) or, when `None`, from the refined enclosing triangle.
-pub(crate) fn run_from(domain: &dyn Implicit2, opts: &Options2, start: Option<&TriMesh<DVec2>>) -> Result<MeshOutput2, Error> {
+pub(crate) fn run_from(
+    domain: &dyn Implicit2,
+    opts: &Options2,
+    start: Option<&TriMesh<DVec2>>,
+) -> Result<MeshOutput2, Error> {
     let t0 = Instant::now();
     let survey = survey(domain, opts)?;
     let projection = match opts.projection {
@@ -99,12 +105,23 @@ pub(crate) fn run_from(domain: &dyn Implicit2, opts: &Options2, start: Option<&T
         Projection::Auto => Projection::FirstOrder,
         p => p,
     };
-    let mut ctx = Ctx { domain, opts, projection, geps: 1e-3 * opts.h0, h_floor: survey.h_floor, report: Report::default(), left: 0, joined: 0 };
+    let mut ctx = Ctx {
+        domain,
+        opts,
+        projection,
+        geps: 1e-3 * opts.h0,
+        h_floor: survey.h_floor,
+        report: Report::default(),
+        left: 0,
+        joined: 0,
+    };
     let mut mesh = match start {
         None => initial_mesh(&mut ctx, survey.estimated_triangles)?,
         Some(prev) => {
             if let Err(e) = prev.validate(Level::Geometry) {
-                return Err(Error::InvalidMesh(format!("the mesh to start from is invalid ({e}): inverted or broken elements")));
+                return Err(Error::InvalidMesh(format!(
+                    "the mesh to start from is invalid ({e}): inverted or broken elements"
+                )));
             }
             let mut fixed_prev = prev.clone();
             for v in prev.vertex_ids() {
@@ -152,7 +169,9 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
         if ctx.approx_dist(*p)? > ctx.geps {
             return Err(Error::Invalid(format!("fixed point ({}, {}) lies outside the domain", p.x, p.y)));
         }
-        let (v, f) = m.insert_delaunay(*p, hint).ok_or_else(|| Error::Internal("fixed point outside the enclosing triangle".into()))?;
+        let (v, f) = m
+            .insert_delaunay(*p, hint)
+            .ok_or_else(|| Error::Internal("fixed point outside the enclosing triangle".into()))?;
         m.set_tag(v, VertexTag::Fixed);
         hint = f;
     }
@@ -165,7 +184,8 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
         for h in m.edge_ids() {
             let (a, b) = (m.origin(h), m.dest(h));
             let (pa, pb) = (m.pos(a), m.pos(b));
-            if pa.distance(pb) > opts.h0 * ctx.h((pa + pb) * 0.5)? * INIT_SPLIT && !edge_certainly_outside(ctx, &m, h)? {
+            if pa.distance(pb) > opts.h0 * ctx.h((pa + pb) * 0.5)? * INIT_SPLIT && !edge_certainly_outside(ctx, &m, h)?
+            {
                 todo.push((a, b));
             }
         }
@@ -182,7 +202,9 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
         }
         m.make_delaunay();
         if m.num_vertices() > cap {
-            return Err(Error::Internal(format!("initial refinement passed {cap} vertices (estimate {estimate:.0} triangles)")));
+            return Err(Error::Internal(format!(
+                "initial refinement passed {cap} vertices (estimate {estimate:.0} triangles)"
+            )));
         }
     }
     carve(ctx, &m)
@@ -239,7 +261,9 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>) -> Result<TriMesh<DVec2>, Error> {
         keep = drop_small_fans(&keep, &pinched, points.len());
     }
     if keep.is_empty() {
-        return Err(Error::EmptyDomain("no triangle of the initial mesh has its centroid inside the domain: h0 is too large for it".into()));
+        return Err(Error::EmptyDomain(
+            "no triangle of the initial mesh has its centroid inside the domain: h0 is too large for it".into(),
+        ));
     }
     // Compact and build.
     let mut map = vec![usize::MAX; points.len()];
@@ -255,7 +279,8 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>) -> Result<TriMesh<DVec2>, Error> {
         }
     }
     let tri: Vec<[usize; 3]> = keep.iter().map(|t| [map[t[0]], map[t[1]], map[t[2]]]).collect();
-    let (mut out, ids) = TriMesh::from_arrays(&pts, &tri).map_err(|e| Error::Internal(format!("carving the initial mesh: {e}")))?;
+    let (mut out, ids) =
+        TriMesh::from_arrays(&pts, &tri).map_err(|e| Error::Internal(format!("carving the initial mesh: {e}")))?;
     for (i, &v) in ids.iter().enumerate() {
         let tag = if is_fixed[i] {
             VertexTag::Fixed
@@ -492,7 +517,8 @@ impl Snapshot {
             .with_min_len(CHUNK)
             .filter(|(q, _)| {
                 let [a, b, c, d] = **q;
-                crate::predicates::incircle(p[a as usize], p[b as usize], p[c as usize], p[d as usize]) == Sign::Positive
+                crate::predicates::incircle(p[a as usize], p[b as usize], p[c as usize], p[d as usize])
+                    == Sign::Positive
             })
             .map(|(_, h)| *h)
             .collect()
@@ -670,10 +696,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         // Connectivity: when some node is far from where it was at the last check (the seed's
         // ttol), every edge gets the exact in-circle test (in parallel) and bad ones flip.
         let mut topo_changed = false;
-        let far = (0..p.len())
-            .into_par_iter()
-            .with_min_len(CHUNK)
-            .any(|i| p[i].distance(pold[i]) > TTOL * h0 * hv[i]);
+        let far = (0..p.len()).into_par_iter().with_min_len(CHUNK).any(|i| p[i].distance(pold[i]) > TTOL * h0 * hv[i]);
         if far {
             pold.copy_from_slice(&p);
             let bad = snap.non_delaunay(&p);
@@ -755,14 +778,21 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     ctx.report.iterations = iter;
     ctx.report.converged = converged;
     if !converged {
-        ctx.report.stop_reason = format!("iteration cap of {} reached; the mesh is the last valid state", opts.max_iter);
+        ctx.report.stop_reason =
+            format!("iteration cap of {} reached; the mesh is the last valid state", opts.max_iter);
     }
     Ok(())
 }
 
 /// Boundary nodes pushed inside become interior (a boundary ear is filled over them); interior
 /// nodes pushed outside become boundary nodes (the boundary triangle below them is removed).
-fn change_membership(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, snap: &Snapshot, leaving: &[(usize, DVec2)], joining: &[usize]) -> Result<bool, Error> {
+fn change_membership(
+    ctx: &mut Ctx,
+    m: &mut TriMesh<DVec2>,
+    snap: &Snapshot,
+    leaving: &[(usize, DVec2)],
+    joining: &[usize],
+) -> Result<bool, Error> {
     let mut changed = false;
     for &(i, inner) in leaving {
         let b = snap.ids[i];

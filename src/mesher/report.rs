@@ -22,7 +22,13 @@ pub struct QualityStats {
 impl QualityStats {
     /// The statistics of a mesh.
     pub fn of<P: MeshPoint>(m: &TriMesh<P>) -> Self {
-        let mut s = QualityStats { triangles: m.num_faces(), vertices: m.num_vertices(), q_min: 1.0, angle_min: 180.0, ..Default::default() };
+        let mut s = QualityStats {
+            triangles: m.num_faces(),
+            vertices: m.num_vertices(),
+            q_min: 1.0,
+            angle_min: 180.0,
+            ..Default::default()
+        };
         let mut sum = 0.0;
         for f in m.face_ids() {
             let [a, b, c] = m.face_points(f);
@@ -69,8 +75,16 @@ pub struct Report {
 impl std::fmt::Display for Report {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let q = &self.quality;
-        writeln!(f, "{} vertices, {} triangles in {:.3} s, {} iterations ({})", q.vertices, q.triangles, self.seconds, self.iterations, self.stop_reason)?;
-        writeln!(f, "q min {:.4}, q mean {:.4}, angles {:.1} to {:.1} degrees", q.q_min, q.q_mean, q.angle_min, q.angle_max)?;
+        writeln!(
+            f,
+            "{} vertices, {} triangles in {:.3} s, {} iterations ({})",
+            q.vertices, q.triangles, self.seconds, self.iterations, self.stop_reason
+        )?;
+        writeln!(
+            f,
+            "q min {:.4}, q mean {:.4}, angles {:.1} to {:.1} degrees",
+            q.q_min, q.q_mean, q.angle_min, q.angle_max
+        )?;
         write!(f, "{} flips, {} splits, {} collapses", self.flips, self.splits, self.collapses)
     }
 }

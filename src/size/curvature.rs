@@ -107,9 +107,7 @@ pub fn curvature_3d(phi: &Grid3) -> Vec<f64> {
                     grad[a] = (f(e(a)) - f(neg(e(a)))) / (2.0 * h);
                     hes.col_mut(a)[a] = (f(e(a)) - 2.0 * f0 + f(neg(e(a)))) / (h * h);
                     for b in (a + 1)..3 {
-                        let x = (f(add(e(a), e(b)))
-                            - f(add(e(a), neg(e(b))))
-                            - f(add(neg(e(a)), e(b)))
+                        let x = (f(add(e(a), e(b))) - f(add(e(a), neg(e(b)))) - f(add(neg(e(a)), e(b)))
                             + f(add(neg(e(a)), neg(e(b)))))
                             / (4.0 * h * h);
                         hes.col_mut(a)[b] = x;
@@ -133,8 +131,7 @@ pub(crate) fn max_principal(grad: DVec3, hes: DMat3) -> f64 {
     let p = DMat3::IDENTITY - DMat3::from_cols(nrm * nrm.x, nrm * nrm.y, nrm * nrm.z);
     let s = p * hes * p * (1.0 / gl);
     let tr = s.x_axis.x + s.y_axis.y + s.z_axis.z;
-    let minors = s.x_axis.x * s.y_axis.y - s.y_axis.x * s.x_axis.y + s.x_axis.x * s.z_axis.z
-        - s.z_axis.x * s.x_axis.z
+    let minors = s.x_axis.x * s.y_axis.y - s.y_axis.x * s.x_axis.y + s.x_axis.x * s.z_axis.z - s.z_axis.x * s.x_axis.z
         + s.y_axis.y * s.z_axis.z
         - s.z_axis.y * s.y_axis.z;
     let hm = 0.5 * tr;
@@ -169,12 +166,7 @@ mod tests {
                 n += 1;
                 let phi = g.values()[idx];
                 let want = 0.6 / 10.0 - 0.3 * phi;
-                assert!(
-                    (v - want).abs() < 1e-3,
-                    "node {} {}: {v} vs {want}",
-                    idx % nx,
-                    idx / nx
-                );
+                assert!((v - want).abs() < 1e-3, "node {} {}: {v} vs {want}", idx % nx, idx / nx);
             }
         }
         assert!(n > 100);

@@ -13,21 +13,13 @@ impl IndexedHeap {
     /// An empty heap for nodes `0..n`.
     pub fn new(n: usize) -> Self {
         assert!(n < NONE as usize, "too many nodes for the heap");
-        IndexedHeap {
-            slots: Vec::new(),
-            pos: vec![NONE; n],
-        }
+        IndexedHeap { slots: Vec::new(), pos: vec![NONE; n] }
     }
 
     /// A heap holding every node `i` with `keys[i] < below` (O(n) heapify).
     pub fn from_keys(keys: &[f64], below: f64) -> Self {
         let mut h = IndexedHeap::new(keys.len());
-        h.slots = keys
-            .iter()
-            .enumerate()
-            .filter(|(_, k)| **k < below)
-            .map(|(i, &k)| (k, i as u32))
-            .collect();
+        h.slots = keys.iter().enumerate().filter(|(_, k)| **k < below).map(|(i, &k)| (k, i as u32)).collect();
         for (s, &(_, i)) in h.slots.iter().enumerate() {
             h.pos[i as usize] = s as u32;
         }
@@ -119,9 +111,6 @@ mod tests {
         while let Some((i, k)) = h.pop() {
             out.push((i, k));
         }
-        assert_eq!(
-            out,
-            vec![(4, 1.0), (3, 2.0), (1, 3.0), (2, 4.0), (0, 5.0), (5, 7.0)]
-        );
+        assert_eq!(out, vec![(4, 1.0), (3, 2.0), (1, 3.0), (2, 4.0), (0, 5.0), (5, 7.0)]);
     }
 }

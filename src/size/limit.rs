@@ -12,14 +12,10 @@ fn check(h: &[f64], slope: &Slope) -> Result<(), Error> {
         return Err(Error::BadSize(format!("size value {v}")));
     }
     match slope {
-        Slope::Constant(g) if !(g.is_finite() && *g >= 0.0) => {
-            Err(Error::BadSize(format!("gradient limit {g}")))
+        Slope::Constant(g) if !(g.is_finite() && *g >= 0.0) => Err(Error::BadSize(format!("gradient limit {g}"))),
+        Slope::PerNode(gs) if gs.len() != h.len() => {
+            Err(Error::BadSize(format!("{} per-node gradient limits for {} nodes", gs.len(), h.len())))
         }
-        Slope::PerNode(gs) if gs.len() != h.len() => Err(Error::BadSize(format!(
-            "{} per-node gradient limits for {} nodes",
-            gs.len(),
-            h.len()
-        ))),
         _ => Ok(()),
     }
 }
@@ -28,12 +24,7 @@ fn check(h: &[f64], slope: &Slope) -> Result<(), Error> {
 /// fastest, spacing `dx`), in place: all nodes start in a min-heap; the smallest is fixed and
 /// its neighbours lowered to the upwind solution of |grad h| = g. O(n log n). Infinite values
 /// are allowed and stay infinite only where nothing finite reaches them.
-pub fn gradient_limit_fast_2d(
-    h: &mut [f64],
-    dims: (usize, usize),
-    dx: f64,
-    slope: &Slope,
-) -> Result<(), Error> {
+pub fn gradient_limit_fast_2d(h: &mut [f64], dims: (usize, usize), dx: f64, slope: &Slope) -> Result<(), Error> {
     let lat = Lattice::new([dims.0, dims.1, 1], dx, h.len())?;
     check(h, slope)?;
     march(&lat, h, None, slope);
@@ -41,12 +32,7 @@ pub fn gradient_limit_fast_2d(
 }
 
 /// [`gradient_limit_fast_2d`] on a 3-D grid.
-pub fn gradient_limit_fast_3d(
-    h: &mut [f64],
-    dims: [usize; 3],
-    dx: f64,
-    slope: &Slope,
-) -> Result<(), Error> {
+pub fn gradient_limit_fast_3d(h: &mut [f64], dims: [usize; 3], dx: f64, slope: &Slope) -> Result<(), Error> {
     let lat = Lattice::new(dims, dx, h.len())?;
     check(h, slope)?;
     march(&lat, h, None, slope);
@@ -86,11 +72,7 @@ pub fn gradient_limit_hj_3d(
 }
 
 fn hj(lat: &Lattice, h: &mut [f64], slope: &Slope, tol: f64, max_iter: usize) -> usize {
-    let fmax = h
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .fold(0.0, f64::max);
+    let fmax = h.iter().copied().filter(|v| v.is_finite()).fold(0.0, f64::max);
     let cap = 2.0 * fmax + 1.0;
     for v in h.iter_mut() {
         *v = v.min(cap);
@@ -138,10 +120,7 @@ pub fn gradient_limit_mesh(
 ) -> Result<(), Error> {
     let n = points.len();
     if h.len() != n {
-        return Err(Error::InvalidMesh(format!(
-            "{} sizes for {n} points",
-            h.len()
-        )));
+        return Err(Error::InvalidMesh(format!("{} sizes for {n} points", h.len())));
     }
     check(h, slope)?;
     if let Some(t) = triangles.iter().find(|t| t.iter().any(|&v| v >= n)) {
@@ -188,9 +167,7 @@ pub fn gradient_limit_mesh(
                 }
                 if fixed[k] {
                     let gi = g(u.min(h[i]));
-                    if let Some(v) =
-                        triangle_update(points[i], points[j], points[k], h[j], h[k], gi)
-                    {
+                    if let Some(v) = triangle_update(points[i], points[j], points[k], h[j], h[k], gi) {
                         u = u.min(v);
                     }
                 }
@@ -238,11 +215,7 @@ mod tests {
         // Point source at (0,-10) with h = 1 and g = 0.3: the front reaching the edge is exact.
         let src = DVec2::new(0.0, -10.0);
         let ex = |p: DVec2| 1.0 + 0.3 * p.distance(src);
-        let (xj, xk, xi) = (
-            DVec2::new(-0.5, 0.0),
-            DVec2::new(0.6, 0.0),
-            DVec2::new(0.1, 0.8),
-        );
+        let (xj, xk, xi) = (DVec2::new(-0.5, 0.0), DVec2::new(0.6, 0.0), DVec2::new(0.1, 0.8));
         let u = triangle_update(xi, xj, xk, ex(xj), ex(xk), 0.3).unwrap();
         // Linear interpolation along the edge: error O(edge^2 / distance).
         assert!((u - ex(xi)).abs() < 5e-3, "{u} vs {}", ex(xi));

@@ -20,9 +20,7 @@ impl Lattice {
             return Err(Error::BadSize(format!("grid spacing {h}")));
         }
         if n.iter().product::<usize>() != len || n.contains(&0) {
-            return Err(Error::BadSize(format!(
-                "grid of {n:?} nodes given {len} values"
-            )));
+            return Err(Error::BadSize(format!("grid of {n:?} nodes given {len} values")));
         }
         Ok(Lattice { n, h })
     }
@@ -47,10 +45,7 @@ impl Lattice {
     #[inline]
     pub fn pair(&self, i: usize, c: &[usize; 3], axis: usize) -> [Option<usize>; 2] {
         let s = self.stride(axis);
-        [
-            (c[axis] > 0).then(|| i - s),
-            (c[axis] + 1 < self.n[axis]).then(|| i + s),
-        ]
+        [(c[axis] > 0).then(|| i - s), (c[axis] + 1 < self.n[axis]).then(|| i + s)]
     }
     pub fn dims(&self) -> usize {
         if self.n[2] == 1 {
@@ -140,31 +135,19 @@ pub(crate) fn march(lat: &Lattice, vals: &mut [f64], frozen: Option<&[bool]>, sl
 /// Extends non-negative distances from the `known` nodes to the whole `nx` by `ny` grid
 /// (x fastest) by fast marching with unit speed; other nodes' values are overwritten.
 /// First-order upwind, O(n log n).
-pub fn fast_march_2d(
-    values: &mut [f64],
-    known: &[bool],
-    dims: (usize, usize),
-    h: f64,
-) -> Result<(), Error> {
+pub fn fast_march_2d(values: &mut [f64], known: &[bool], dims: (usize, usize), h: f64) -> Result<(), Error> {
     fast_march(values, known, [dims.0, dims.1, 1], h)
 }
 
 /// [`fast_march_2d`] on an `n[0]` by `n[1]` by `n[2]` grid.
-pub fn fast_march_3d(
-    values: &mut [f64],
-    known: &[bool],
-    dims: [usize; 3],
-    h: f64,
-) -> Result<(), Error> {
+pub fn fast_march_3d(values: &mut [f64], known: &[bool], dims: [usize; 3], h: f64) -> Result<(), Error> {
     fast_march(values, known, dims, h)
 }
 
 fn fast_march(values: &mut [f64], known: &[bool], n: [usize; 3], h: f64) -> Result<(), Error> {
     let lat = Lattice::new(n, h, values.len())?;
     if known.len() != values.len() {
-        return Err(Error::BadSize(
-            "known mask length differs from values".into(),
-        ));
+        return Err(Error::BadSize("known mask length differs from values".into()));
     }
     for (v, &k) in values.iter_mut().zip(known) {
         if !k {
@@ -225,26 +208,16 @@ pub(crate) fn reinit(lat: &Lattice, phi: &[f64]) -> Vec<f64> {
 /// A signed distance grid from level-set values on a grid (narrow band plus fast marching).
 pub fn reinitialize_2d(phi: &Grid2) -> Grid2 {
     let (nx, ny) = phi.dims();
-    let lat = Lattice {
-        n: [nx, ny, 1],
-        h: phi.spacing(),
-    };
+    let lat = Lattice { n: [nx, ny, 1], h: phi.spacing() };
     let d = reinit(&lat, phi.values());
-    Grid2::new(phi.origin(), phi.spacing(), nx, ny, d)
-        .expect("same layout")
-        .with_distance(true)
+    Grid2::new(phi.origin(), phi.spacing(), nx, ny, d).expect("same layout").with_distance(true)
 }
 
 /// 3-D [`reinitialize_2d`].
 pub fn reinitialize_3d(phi: &Grid3) -> Grid3 {
-    let lat = Lattice {
-        n: phi.dims(),
-        h: phi.spacing(),
-    };
+    let lat = Lattice { n: phi.dims(), h: phi.spacing() };
     let d = reinit(&lat, phi.values());
-    Grid3::new(phi.origin(), phi.spacing(), phi.dims(), d)
-        .expect("same layout")
-        .with_distance(true)
+    Grid3::new(phi.origin(), phi.spacing(), phi.dims(), d).expect("same layout").with_distance(true)
 }
 
 /// Samples `f` on a grid covering `[min, max]` at spacing `h`; unless `f` reports
@@ -256,11 +229,7 @@ pub fn signed_distance_2d(
     h: f64,
 ) -> Result<Grid2, Error> {
     let g = Grid2::sample(f, min, max, h)?;
-    Ok(if f.is_distance() {
-        g
-    } else {
-        reinitialize_2d(&g)
-    })
+    Ok(if f.is_distance() { g } else { reinitialize_2d(&g) })
 }
 
 /// 3-D [`signed_distance_2d`].
@@ -271,11 +240,7 @@ pub fn signed_distance_3d(
     h: f64,
 ) -> Result<Grid3, Error> {
     let g = Grid3::sample(f, min, max, h)?;
-    Ok(if f.is_distance() {
-        g
-    } else {
-        reinitialize_3d(&g)
-    })
+    Ok(if f.is_distance() { g } else { reinitialize_3d(&g) })
 }
 
 #[cfg(test)]

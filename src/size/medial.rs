@@ -18,10 +18,7 @@ pub struct MedialAxisParams {
 
 impl Default for MedialAxisParams {
     fn default() -> Self {
-        MedialAxisParams {
-            gamma: 4.0,
-            kappa_tol: 0.1,
-        }
+        MedialAxisParams { gamma: 4.0, kappa_tol: 0.1 }
     }
 }
 
@@ -51,10 +48,7 @@ pub fn medial_axis_2d(phi: &Grid2, params: &MedialAxisParams) -> MedialAxis {
     let (nx, ny) = phi.dims();
     let h = phi.spacing();
     let v: Vec<f64> = phi.values().iter().map(|p| p / h).collect();
-    let mut out = MedialAxis {
-        points: vec![],
-        node_distance: vec![f64::INFINITY; nx * ny],
-    };
+    let mut out = MedialAxis { points: vec![], node_distance: vec![f64::INFINITY; nx * ny] };
     if nx < 6 || ny < 6 {
         return out;
     }
@@ -73,8 +67,7 @@ pub fn medial_axis_2d(phi: &Grid2, params: &MedialAxisParams) -> MedialAxis {
                 if f(0) >= 0.0 || f(1) >= 0.0 {
                     continue;
                 }
-                let Some((s0, strength)) = crossing([f(-2), f(-1), f(0)], [f(1), f(2), f(3)])
-                else {
+                let Some((s0, strength)) = crossing([f(-2), f(-1), f(0)], [f(1), f(2), f(3)]) else {
                     continue;
                 };
                 // Second-order one-sided gradients at the edge's two nodes, each from its own
@@ -87,32 +80,20 @@ pub fn medial_axis_2d(phi: &Grid2, params: &MedialAxisParams) -> MedialAxis {
                     };
                     let lc = l.clamp(1, lines - 2);
                     let across = 0.5 * (v[idx(lc + 1, t)] - v[idx(lc - 1, t)]);
-                    let g = if axis == 0 {
-                        DVec2::new(along, across)
-                    } else {
-                        DVec2::new(across, along)
-                    };
+                    let g = if axis == 0 { DVec2::new(along, across) } else { DVec2::new(across, along) };
                     g.normalize_or_zero()
                 };
                 let (g1, g2) = (grad(i, false), grad(i + 1, true));
                 let alpha = g1.dot(g2);
                 let (a1, b1) = ij(l, i - 1);
                 let (a2, b2) = ij(l, i + 2);
-                let k = kap(a1, b1)
-                    .abs()
-                    .max(kap(a2, b2).abs())
-                    .max(params.kappa_tol);
+                let k = kap(a1, b1).abs().max(kap(a2, b2).abs()).max(params.kappa_tol);
                 if alpha >= 1.0 - params.gamma * params.gamma * k * k / 2.0 {
                     continue;
                 }
                 let dn = g1 - g2;
                 let n = dn.normalize_or_zero();
-                cands.push(Candidate {
-                    i,
-                    s0,
-                    strength,
-                    normal_axis: if axis == 0 { n.x.abs() } else { n.y.abs() },
-                });
+                cands.push(Candidate { i, s0, strength, normal_axis: if axis == 0 { n.x.abs() } else { n.y.abs() } });
             }
             for c in &cands {
                 let beaten = cands.iter().any(|o| {
@@ -189,9 +170,7 @@ fn crossing(a: [f64; 3], b: [f64; 3]) -> Option<(f64, f64)> {
 
 fn pick(r1: f64, r2: f64) -> Option<f64> {
     let tol = 1e-9;
-    [r1, r2]
-        .into_iter()
-        .find(|r| r.is_finite() && *r >= -tol && *r <= 1.0 + tol)
+    [r1, r2].into_iter().find(|r| r.is_finite() && *r >= -tol && *r <= 1.0 + tol)
 }
 
 /// Local feature size lfs = |phi| + |phi_MA| (seed eq. 4.6) at every node, with phi_MA by fast
@@ -205,12 +184,7 @@ pub fn feature_size_2d(phi: &Grid2, params: &MedialAxisParams) -> (Vec<f64>, Med
     if known.iter().any(|&k| k) {
         fast_march_2d(&mut dma, &known, (nx, ny), phi.spacing()).expect("grid layout");
     }
-    let lfs = phi
-        .values()
-        .iter()
-        .zip(&dma)
-        .map(|(p, m)| p.abs() + m.abs())
-        .collect();
+    let lfs = phi.values().iter().zip(&dma).map(|(p, m)| p.abs() + m.abs()).collect();
     (lfs, ma)
 }
 

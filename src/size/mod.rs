@@ -12,12 +12,10 @@ mod medial;
 
 pub use curvature::{curvature_2d, curvature_3d, curvature_size_2d, curvature_size_3d};
 pub use limit::{
-    gradient_limit_fast_2d, gradient_limit_fast_3d, gradient_limit_hj_2d, gradient_limit_hj_3d,
-    gradient_limit_mesh,
+    gradient_limit_fast_2d, gradient_limit_fast_3d, gradient_limit_hj_2d, gradient_limit_hj_3d, gradient_limit_mesh,
 };
 pub use march::{
-    fast_march_2d, fast_march_3d, reinitialize_2d, reinitialize_3d, signed_distance_2d,
-    signed_distance_3d,
+    fast_march_2d, fast_march_3d, reinitialize_2d, reinitialize_3d, signed_distance_2d, signed_distance_3d,
 };
 pub use medial::{feature_size_2d, medial_axis_2d, MedialAxis, MedialAxisParams};
 
@@ -68,14 +66,7 @@ pub struct SizeParams {
 
 impl Default for SizeParams {
     fn default() -> Self {
-        SizeParams {
-            k: 2.0,
-            r: 2.0,
-            g: 0.3,
-            hmin: 0.0,
-            hmax: f64::INFINITY,
-            medial: MedialAxisParams::default(),
-        }
+        SizeParams { k: 2.0, r: 2.0, g: 0.3, hmin: 0.0, hmax: f64::INFINITY, medial: MedialAxisParams::default() }
     }
 }
 
@@ -96,14 +87,7 @@ fn check_params(p: &SizeParams) -> Result<(), Error> {
 }
 
 /// Combines the sources into h0 (eq. 4.18), limits its gradient (Algorithm 4-2) and clamps.
-fn finish(
-    phi: &[f64],
-    hc: &[f64],
-    lfs: Option<&[f64]>,
-    p: &SizeParams,
-    dims: [usize; 3],
-    dx: f64,
-) -> Vec<f64> {
+fn finish(phi: &[f64], hc: &[f64], lfs: Option<&[f64]>, p: &SizeParams, dims: [usize; 3], dx: f64) -> Vec<f64> {
     let cap = if p.hmax.is_finite() {
         p.hmax
     } else {
@@ -144,32 +128,15 @@ pub fn auto_size_2d(
     // Curvature from the sampled function itself (eq. 4.2 holds for any level-set function;
     // second differences of a first-order reinitialised distance would be noise).
     let raw = Grid2::sample(domain, bbox[0], bbox[1], grid_h)?;
-    let phi = if domain.is_distance() {
-        raw.clone()
-    } else {
-        reinitialize_2d(&raw)
-    };
+    let phi = if domain.is_distance() { raw.clone() } else { reinitialize_2d(&raw) };
     let (nx, ny) = phi.dims();
     let hc = if params.k > 0.0 {
-        curvature::size_from(
-            phi.values(),
-            &curvature_2d(&raw),
-            grid_h,
-            params.k,
-            params.g,
-        )
+        curvature::size_from(phi.values(), &curvature_2d(&raw), grid_h, params.k, params.g)
     } else {
         vec![f64::INFINITY; nx * ny]
     };
     let lfs = (params.r > 0.0).then(|| feature_size_2d(&phi, &params.medial).0);
-    let h = finish(
-        phi.values(),
-        &hc,
-        lfs.as_deref(),
-        params,
-        [nx, ny, 1],
-        grid_h,
-    );
+    let h = finish(phi.values(), &hc, lfs.as_deref(), params, [nx, ny, 1], grid_h);
     Ok(Grid2::new(phi.origin(), grid_h, nx, ny, h)?.with_distance(false))
 }
 
@@ -183,20 +150,10 @@ pub fn auto_size_3d(
 ) -> Result<Grid3, Error> {
     check_params(params)?;
     let raw = Grid3::sample(domain, bbox[0], bbox[1], grid_h)?;
-    let phi = if domain.is_distance() {
-        raw.clone()
-    } else {
-        reinitialize_3d(&raw)
-    };
+    let phi = if domain.is_distance() { raw.clone() } else { reinitialize_3d(&raw) };
     let n = phi.dims();
     let hc = if params.k > 0.0 {
-        curvature::size_from(
-            phi.values(),
-            &curvature_3d(&raw),
-            grid_h,
-            params.k,
-            params.g,
-        )
+        curvature::size_from(phi.values(), &curvature_3d(&raw), grid_h, params.k, params.g)
     } else {
         vec![f64::INFINITY; phi.values().len()]
     };

@@ -21,12 +21,12 @@ mod trimesh;
 
 pub use delaunay::hilbert_order;
 pub use queue::QualityQueue;
-pub use tri_ops::{CollapsePlan, FlipPlan, InsertPlan, SplitPlan};
 pub use tet_delaunay::hilbert_order_3d;
 pub use tet_ops::{Flip23Plan, Flip32Plan, TetPatch};
 pub use tetmesh::{EdgeShell, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_OPPOSITE, EDGE_VERTICES, FACE_VERTICES};
+pub use tri_ops::{CollapsePlan, FlipPlan, InsertPlan, SplitPlan};
 pub use tri_validate::{Invariant, InvariantViolation, Level};
-pub use trimesh::{Face, HalfEdge, HalfEdgeId, FaceId, MeshPoint, TriMesh, Vertex, VertexId, VertexTag};
+pub use trimesh::{Face, FaceId, HalfEdge, HalfEdgeId, MeshPoint, TriMesh, Vertex, VertexId, VertexTag};
 
 /// Why a local operation declined. Refusals are values, never panics; the mesh is untouched.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

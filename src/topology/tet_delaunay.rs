@@ -15,9 +15,7 @@
 //! exact insphere, and the volume, on random sets of 10^2 to 10^5 points and degenerate grids.
 
 use super::tet_ops::TetPatch;
-use super::tetmesh::{
-    face_key, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_VERTICES, FACE_VERTICES,
-};
+use super::tetmesh::{face_key, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_VERTICES, FACE_VERTICES};
 use super::VertexTag;
 use crate::predicates::{insphere, orient3d, Sign};
 use glam::DVec3;
@@ -153,23 +151,13 @@ impl TetMesh {
         let mut m = TetMesh::with_capacity(points.len() + 4);
         let fv: Vec<TVertexId> = dirs
             .iter()
-            .map(|d| {
-                m.vertices.insert(TVertex {
-                    pos: c + *d * far,
-                    tet: TetId::null(),
-                    tag: VertexTag::Interior,
-                })
-            })
+            .map(|d| m.vertices.insert(TVertex { pos: c + *d * far, tet: TetId::null(), tag: VertexTag::Interior }))
             .collect();
         let mut v = [fv[0], fv[1], fv[2], fv[3]];
         if orient3d(m.pos(v[0]), m.pos(v[1]), m.pos(v[2]), m.pos(v[3])) != Sign::Positive {
             v.swap(2, 3);
         }
-        let t0 = m.tets.insert(Tet {
-            v,
-            adj: [None; 4],
-            label: 0,
-        });
+        let t0 = m.tets.insert(Tet { v, adj: [None; 4], label: 0 });
         for &x in &v {
             m.vertices[x].tet = t0;
         }
@@ -180,17 +168,9 @@ impl TetMesh {
             let p = points[i];
             match m.locate(p, hint) {
                 Loc::Vertex(w) => ids[i] = w,
-                Loc::Outside => {
-                    return Err(InvalidMesh(
-                        "a point fell outside the enclosing tetrahedron".into(),
-                    ))
-                }
+                Loc::Outside => return Err(InvalidMesh("a point fell outside the enclosing tetrahedron".into())),
                 Loc::Inside(t) => {
-                    let nv = m.vertices.insert(TVertex {
-                        pos: p,
-                        tet: t,
-                        tag: VertexTag::Interior,
-                    });
+                    let nv = m.vertices.insert(TVertex { pos: p, tet: t, tag: VertexTag::Interior });
                     ids[i] = nv;
                     stack.clear();
                     m.split14_raw(t, nv, &mut stack);
@@ -208,16 +188,9 @@ impl TetMesh {
             }
         }
         // Remove the enclosing vertices and their tets.
-        let dead: Vec<TetId> = m
-            .tets
-            .iter()
-            .filter(|(_, tx)| tx.v.iter().any(|w| fv.contains(w)))
-            .map(|(t, _)| t)
-            .collect();
-        let removed: Vec<Tet> = dead
-            .iter()
-            .map(|&t| m.tets.remove(t).expect("live"))
-            .collect();
+        let dead: Vec<TetId> =
+            m.tets.iter().filter(|(_, tx)| tx.v.iter().any(|w| fv.contains(w))).map(|(t, _)| t).collect();
+        let removed: Vec<Tet> = dead.iter().map(|&t| m.tets.remove(t).expect("live")).collect();
         for tx in &removed {
             for k in 0..4 {
                 if let Some((u, j)) = tx.adj[k] {
@@ -235,12 +208,8 @@ impl TetMesh {
             m.vertices.remove(w);
         }
         m.fill_hull();
-        let lost: Vec<TVertexId> = m
-            .vertices
-            .iter()
-            .filter(|(_, vx)| !m.tets.contains_key(vx.tet))
-            .map(|(w, _)| w)
-            .collect();
+        let lost: Vec<TVertexId> =
+            m.vertices.iter().filter(|(_, vx)| !m.tets.contains_key(vx.tet)).map(|(w, _)| w).collect();
         for w in lost {
             m.vertices.remove(w);
         }
@@ -259,8 +228,7 @@ impl TetMesh {
         loop {
             let bf = self.boundary_faces();
             let mut by_key: HashMap<[TVertexId; 3], (TetId, u8)> = HashMap::with_capacity(bf.len());
-            let mut by_edge: HashMap<(TVertexId, TVertexId), TVertexId> =
-                HashMap::with_capacity(3 * bf.len());
+            let mut by_edge: HashMap<(TVertexId, TVertexId), TVertexId> = HashMap::with_capacity(3 * bf.len());
             for &(t, i) in &bf {
                 let f = self.face_vertices(t, i);
                 by_key.insert(face_key(f), (t, i as u8));
@@ -298,9 +266,7 @@ impl TetMesh {
                     for (j, g) in glue.iter_mut().enumerate() {
                         let fv = FACE_VERTICES[j].map(|m| v[m]);
                         match by_key.get(&face_key(fv)) {
-                            Some(&(u, l)) if self.tets[u].adj[l as usize].is_none() => {
-                                *g = Some((u, l))
-                            }
+                            Some(&(u, l)) if self.tets[u].adj[l as usize].is_none() => *g = Some((u, l)),
                             Some(_) => ok = false,
                             None => ok &= !self.has_face(fv[0], fv[1], fv[2]),
                         }
@@ -308,11 +274,7 @@ impl TetMesh {
                     if !ok {
                         continue;
                     }
-                    let id = self.tets.insert(Tet {
-                        v,
-                        adj: glue,
-                        label: 0,
-                    });
+                    let id = self.tets.insert(Tet { v, adj: glue, label: 0 });
                     for (j, g) in glue.iter().enumerate() {
                         if let Some((u, l)) = g {
                             self.tets[*u].adj[*l as usize] = Some((id, j as u8));
@@ -363,10 +325,7 @@ impl TetMesh {
                     let mut done = None;
                     for k in 0..3 {
                         let (x, y) = (f[k].min(f[(k + 1) % 3]), f[k].max(f[(k + 1) % 3]));
-                        let e = EDGE_VERTICES
-                            .iter()
-                            .position(|&[p, q]| p == x && q == y)
-                            .expect("edge");
+                        let e = EDGE_VERTICES.iter().position(|&[p, q]| p == x && q == y).expect("edge");
                         if let Ok(plan) = self.check_flip32(t, e) {
                             done = Some(self.apply_patch(plan).0);
                             break;
@@ -395,12 +354,7 @@ impl TetMesh {
         let mut prev: Option<TetId> = None;
         'walk: loop {
             let tx = &self.tets[t];
-            let q = [
-                self.pos(tx.v[0]),
-                self.pos(tx.v[1]),
-                self.pos(tx.v[2]),
-                self.pos(tx.v[3]),
-            ];
+            let q = [self.pos(tx.v[0]), self.pos(tx.v[1]), self.pos(tx.v[2]), self.pos(tx.v[3])];
             rot ^= rot << 13;
             rot ^= rot >> 17;
             rot ^= rot << 5;
@@ -447,12 +401,7 @@ impl TetMesh {
             let ip = tx.v.iter().position(|&w| w == p).expect("tet holds p");
             let Some((u, j)) = tx.adj[ip] else { continue };
             let e = self.tets[u].v[j as usize];
-            let q = [
-                self.pos(tx.v[0]),
-                self.pos(tx.v[1]),
-                self.pos(tx.v[2]),
-                self.pos(tx.v[3]),
-            ];
+            let q = [self.pos(tx.v[0]), self.pos(tx.v[1]), self.pos(tx.v[2]), self.pos(tx.v[3])];
             let pe = self.pos(e);
             if insphere(q[0], q[1], q[2], q[3], pe) != Sign::Positive {
                 continue;
@@ -489,19 +438,12 @@ impl TetMesh {
                                 new.push(([ci, cj, ck, sh.b], tx.label));
                             }
                             let ok = new.iter().all(|(v, _)| {
-                                orient3d(
-                                    self.pos(v[0]),
-                                    self.pos(v[1]),
-                                    self.pos(v[2]),
-                                    self.pos(v[3]),
-                                ) == Sign::Positive
+                                orient3d(self.pos(v[0]), self.pos(v[1]), self.pos(v[2]), self.pos(v[3]))
+                                    == Sign::Positive
                             });
                             if ok {
-                                let (made, _) = self.apply_patch(TetPatch::raw(
-                                    sh.tets.iter().copied().collect(),
-                                    new,
-                                    None,
-                                ));
+                                let (made, _) =
+                                    self.apply_patch(TetPatch::raw(sh.tets.iter().copied().collect(), new, None));
                                 last = made[0];
                                 stack.extend(made);
                             }
@@ -540,12 +482,7 @@ impl TetMesh {
                     }
                 }
                 let ok = |v: [TVertexId; 4]| {
-                    orient3d(
-                        self.pos(v[0]),
-                        self.pos(v[1]),
-                        self.pos(v[2]),
-                        self.pos(v[3]),
-                    ) == Sign::Positive
+                    orient3d(self.pos(v[0]), self.pos(v[1]), self.pos(v[2]), self.pos(v[3])) == Sign::Positive
                 };
                 if !ok(t1) || !ok(t2) {
                     continue;
@@ -580,11 +517,7 @@ impl TetMesh {
         for k in 1..4 {
             let mut v = tx.v;
             v[k] = p;
-            n[k] = self.tets.insert(Tet {
-                v,
-                adj: [None; 4],
-                label: tx.label,
-            });
+            n[k] = self.tets.insert(Tet { v, adj: [None; 4], label: tx.label });
         }
         self.tets[t].v[0] = p;
         for k in 0..4 {
@@ -618,11 +551,7 @@ impl TetMesh {
             from_t[k] = tx.adj[tx.v.iter().position(|&w| w == z).expect("z in t")];
             from_u[k] = ux.adj[ux.v.iter().position(|&w| w == z).expect("z in u")];
         }
-        let n2 = self.tets.insert(Tet {
-            v: [abc[2], abc[0], p, e],
-            adj: [None; 4],
-            label: tx.label,
-        });
+        let n2 = self.tets.insert(Tet { v: [abc[2], abc[0], p, e], adj: [None; 4], label: tx.label });
         let n = [t, u, n2];
         for k in 0..3 {
             self.tets[n[k]].v = [abc[k], abc[(k + 1) % 3], p, e];
@@ -655,29 +584,17 @@ impl TetMesh {
     ) {
         self.revision = self.revision.wrapping_add(1);
         let (tx, ux, wx) = (self.tets[t], self.tets[u], self.tets[w]);
-        let at = |v: &[TVertexId; 4], q: TVertexId| {
-            v.iter().position(|&s| s == q).expect("vertex in tet")
-        };
+        let at = |v: &[TVertexId; 4], q: TVertexId| v.iter().position(|&s| s == q).expect("vertex in tet");
         let (ix, iy) = (at(&tx.v, x), at(&tx.v, y));
-        let iz = (0..4)
-            .find(|&k| k != ix && k != iy && tx.v[k] != e && ux.v.contains(&tx.v[k]))
-            .expect("z");
+        let iz = (0..4).find(|&k| k != ix && k != iy && tx.v[k] != e && ux.v.contains(&tx.v[k])).expect("z");
         let ip = 6 - ix - iy - iz;
         let mut v1 = tx.v;
         v1[iy] = e;
         let mut v2 = tx.v;
         v2[ix] = e;
         // Outer neighbours, read before any write.
-        let t1 = [
-            (iy, tx.adj[iy]),
-            (iz, wx.adj[at(&wx.v, y)]),
-            (ip, ux.adj[at(&ux.v, y)]),
-        ];
-        let t2 = [
-            (ix, tx.adj[ix]),
-            (iz, wx.adj[at(&wx.v, x)]),
-            (ip, ux.adj[at(&ux.v, x)]),
-        ];
+        let t1 = [(iy, tx.adj[iy]), (iz, wx.adj[at(&wx.v, y)]), (ip, ux.adj[at(&ux.v, y)])];
+        let t2 = [(ix, tx.adj[ix]), (iz, wx.adj[at(&wx.v, x)]), (ip, ux.adj[at(&ux.v, x)])];
         self.tets.remove(w);
         self.tets[t].v = v1;
         self.tets[u].v = v2;
@@ -749,9 +666,7 @@ mod tests {
 
     #[test]
     fn hilbert_keys_are_a_permutation_of_the_curve() {
-        let mut keys: Vec<u64> = (0..8u32)
-            .map(|i| hilbert_index_3d([i & 1, (i >> 1) & 1, i >> 2], 1))
-            .collect();
+        let mut keys: Vec<u64> = (0..8u32).map(|i| hilbert_index_3d([i & 1, (i >> 1) & 1, i >> 2], 1)).collect();
         keys.sort();
         assert_eq!(keys, (0..8).collect::<Vec<u64>>());
         // Consecutive cells of an order-2 curve are face neighbours.
@@ -773,9 +688,7 @@ mod tests {
     #[test]
     fn small_delaunay_is_valid() {
         let mut r = crate::testing::Rng::new(crate::testing::SEED);
-        let pts: Vec<DVec3> = (0..200)
-            .map(|_| DVec3::new(r.f64(), r.f64(), r.f64()))
-            .collect();
+        let pts: Vec<DVec3> = (0..200).map(|_| DVec3::new(r.f64(), r.f64(), r.f64())).collect();
         let (m, ids) = TetMesh::delaunay(&pts).unwrap();
         m.validate(Level::Delaunay).unwrap();
         assert!(ids.iter().all(|&v| m.contains_vertex(v)));

@@ -6,9 +6,7 @@
 //! region. The apply step glues the new tets to each other and to the tets outside by face
 //! keys, so one routine keeps neighbours, face indices and vertex pointers right for all ops.
 
-use super::tetmesh::{
-    face_key, EdgeShell, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_VERTICES, FACE_VERTICES,
-};
+use super::tetmesh::{face_key, EdgeShell, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_VERTICES, FACE_VERTICES};
 use super::{Refusal, VertexTag};
 use crate::predicates::{orient3d, Sign};
 use glam::DVec3;
@@ -48,21 +46,8 @@ pub struct TetPatch {
 
 impl TetPatch {
     /// A patch whose new tets the caller has already checked (crate-private fast paths).
-    pub(crate) fn raw(
-        old: SmallVec<[TetId; 16]>,
-        new: NewTets,
-        add: Option<(DVec3, VertexTag)>,
-    ) -> Self {
-        TetPatch {
-            old,
-            new,
-            subst: None,
-            remove: None,
-            add,
-            moved: None,
-            min_quality: 0.0,
-            revision: None,
-        }
+    pub(crate) fn raw(old: SmallVec<[TetId; 16]>, new: NewTets, add: Option<(DVec3, VertexTag)>) -> Self {
+        TetPatch { old, new, subst: None, remove: None, add, moved: None, min_quality: 0.0, revision: None }
     }
     /// Number of tets the patch removes.
     pub fn removed(&self) -> usize {
@@ -113,23 +98,13 @@ impl TetMesh {
                     }
                 }
                 let f = self.face_vertices(t, i);
-                ext.push((
-                    face_key([sub(f[0]), sub(f[1]), sub(f[2])]),
-                    tx.adj[i],
-                    false,
-                ));
+                ext.push((face_key([sub(f[0]), sub(f[1]), sub(f[2])]), tx.adj[i], false));
             }
         }
         for &t in &plan.old {
             self.tets.remove(t);
         }
-        let newv = plan.add.map(|(pos, tag)| {
-            self.vertices.insert(TVertex {
-                pos,
-                tet: TetId::null(),
-                tag,
-            })
-        });
+        let newv = plan.add.map(|(pos, tag)| self.vertices.insert(TVertex { pos, tet: TetId::null(), tag }));
         if let Some((v, p)) = plan.moved {
             self.vertices[v].pos = p;
         }
@@ -141,11 +116,7 @@ impl TetMesh {
                     *x = newv.expect("patch with a new vertex");
                 }
             }
-            let id = self.tets.insert(Tet {
-                v,
-                adj: [None; 4],
-                label,
-            });
+            let id = self.tets.insert(Tet { v, adj: [None; 4], label });
             made.push(id);
             for &x in &v {
                 self.vertices[x].tet = id;
@@ -177,10 +148,7 @@ impl TetMesh {
             ext[k].2 = true;
             let key = ext[k].0;
             let other = (k + 1..ext.len()).find(|&m| !ext[m].2 && ext[m].0 == key);
-            debug_assert!(
-                other.is_some() || ext[k].1.is_none(),
-                "patch left an outside neighbour unmatched"
-            );
+            debug_assert!(other.is_some() || ext[k].1.is_none(), "patch left an outside neighbour unmatched");
             if let Some(m) = other {
                 ext[m].2 = true;
                 let (x, y) = (ext[k].1, ext[m].1);
@@ -212,26 +180,12 @@ impl TetMesh {
     pub(crate) fn check_around(&self, tets: &[TetId]) {
         for &t in tets {
             let tx = &self.tets[t];
-            assert_eq!(
-                self.tet_orientation(t),
-                Sign::Positive,
-                "check_around: tet not positive"
-            );
+            assert_eq!(self.tet_orientation(t), Sign::Positive, "check_around: tet not positive");
             for i in 0..4 {
-                assert!(
-                    self.tets.contains_key(self.vertices[tx.v[i]].tet),
-                    "check_around: dead vertex pointer"
-                );
+                assert!(self.tets.contains_key(self.vertices[tx.v[i]].tet), "check_around: dead vertex pointer");
                 if let Some((u, j)) = tx.adj[i] {
-                    assert_eq!(
-                        self.tets[u].adj[j as usize],
-                        Some((t, i as u8)),
-                        "check_around: neighbours"
-                    );
-                    assert_eq!(
-                        face_key(self.face_vertices(t, i)),
-                        face_key(self.face_vertices(u, j as usize))
-                    );
+                    assert_eq!(self.tets[u].adj[j as usize], Some((t, i as u8)), "check_around: neighbours");
+                    assert_eq!(face_key(self.face_vertices(t, i)), face_key(self.face_vertices(u, j as usize)));
                 }
             }
         }
@@ -239,12 +193,7 @@ impl TetMesh {
 
     /// Orientation checks of would-be tets; `p` is the position of the null (new) vertex and
     /// `moved` overrides one vertex's position. Returns the worst radius ratio.
-    fn check_new(
-        &self,
-        new: &NewTets,
-        p: DVec3,
-        moved: Option<(TVertexId, DVec3)>,
-    ) -> Result<f64, Refusal> {
+    fn check_new(&self, new: &NewTets, p: DVec3, moved: Option<(TVertexId, DVec3)>) -> Result<f64, Refusal> {
         let at = |v: TVertexId| {
             if v.is_null() {
                 p
@@ -294,11 +243,8 @@ impl TetMesh {
         let d = tx.v[i];
         let e = self.tets[u].v[j as usize];
         let [p, q, r] = self.face_vertices(t, i);
-        let new: NewTets = SmallVec::from_slice(&[
-            ([p, q, d, e], tx.label),
-            ([q, r, d, e], tx.label),
-            ([r, p, d, e], tx.label),
-        ]);
+        let new: NewTets =
+            SmallVec::from_slice(&[([p, q, d, e], tx.label), ([q, r, d, e], tx.label), ([r, p, d, e], tx.label)]);
         let worst = self.check_new(&new, DVec3::ZERO, None)?;
         // The new edge must not exist already.
         if self.find_edge(d, e).is_some() {
@@ -351,13 +297,10 @@ impl TetMesh {
         // Quality of the pair of tets on ring triangle (i, j, k); negative when invalid.
         let tri_q = |i: usize, j: usize, k: usize| -> f64 {
             let (ci, cj, ck) = (pc[i], pc[j], pc[k]);
-            if orient3d(pa, ci, cj, ck) != Sign::Positive
-                || orient3d(ci, cj, ck, pb) != Sign::Positive
-            {
+            if orient3d(pa, ci, cj, ck) != Sign::Positive || orient3d(ci, cj, ck, pb) != Sign::Positive {
                 return -1.0;
             }
-            crate::quality::tet_radius_ratio([pa, ci, cj, ck])
-                .min(crate::quality::tet_radius_ratio([ci, cj, ck, pb]))
+            crate::quality::tet_radius_ratio([pa, ci, cj, ck]).min(crate::quality::tet_radius_ratio([ci, cj, ck, pb]))
         };
         // best[i][j]: best worst-quality of the sub-polygon ci..cj (j > i + 1); choice[i][j] = k.
         let mut best = [[f64::INFINITY; 12]; 12];
@@ -410,10 +353,7 @@ impl TetMesh {
         }
         // The new diagonals must not exist already; for n = 3 the new face must not.
         for &(i, j) in &diagonals {
-            if (j + 1) % n != i
-                && (i + 1) % n != j
-                && self.find_edge(s.ring[i], s.ring[j]).is_some()
-            {
+            if (j + 1) % n != i && (i + 1) % n != j && self.find_edge(s.ring[i], s.ring[j]).is_some() {
                 return Err(Refusal::DuplicateEdge);
             }
         }
@@ -521,8 +461,7 @@ impl TetMesh {
             VertexTag::Boundary
         } else if s.tets.iter().any(|&u| self.tets[u].label != label0) {
             let curve = match (self.tag(s.a), self.tag(s.b)) {
-                (VertexTag::InternalBoundary { curve }, _)
-                | (_, VertexTag::InternalBoundary { curve }) => curve,
+                (VertexTag::InternalBoundary { curve }, _) | (_, VertexTag::InternalBoundary { curve }) => curve,
                 _ => 0,
             };
             VertexTag::InternalBoundary { curve }
@@ -582,13 +521,7 @@ impl TetMesh {
     /// fixed vertices never go nor move; boundary vertices go only along boundary edges into
     /// boundary or fixed vertices; internal-boundary vertices only along internal-boundary
     /// edges into the same curve.
-    pub fn check_collapse(
-        &self,
-        t: TetId,
-        e: usize,
-        reverse: bool,
-        pos: DVec3,
-    ) -> Result<TetPatch, Refusal> {
+    pub fn check_collapse(&self, t: TetId, e: usize, reverse: bool, pos: DVec3) -> Result<TetPatch, Refusal> {
         self.live_tet(t)?;
         if !pos.is_finite() {
             return Err(Refusal::NonFinite);
@@ -650,11 +583,7 @@ impl TetMesh {
         }
         let worst = self.check_new(&new, DVec3::ZERO, Some((b, pos)))?;
         // Every ring vertex must keep a tet (its other tets all touch a or b, so are new).
-        if new.is_empty()
-            || s.ring
-                .iter()
-                .any(|&c| !new.iter().any(|(v, _)| v.contains(&c)))
-        {
+        if new.is_empty() || s.ring.iter().any(|&c| !new.iter().any(|(v, _)| v.contains(&c))) {
             return Err(Refusal::TooSmall);
         }
         let mut plan = self.patch(old, new);
@@ -708,11 +637,8 @@ impl TetMesh {
                 // Boundary faces through x cone to infinity.
                 for k in 0..4 {
                     if k != ix && tx.adj[k].is_none() {
-                        let g: SmallVec<[TVertexId; 3]> = FACE_VERTICES[k]
-                            .iter()
-                            .map(|&m| tx.v[m])
-                            .filter(|&w| w != x)
-                            .collect();
+                        let g: SmallVec<[TVertexId; 3]> =
+                            FACE_VERTICES[k].iter().map(|&m| tx.v[m]).filter(|&w| w != x).collect();
                         add_tri([g[0], g[1], inf], &mut vs, &mut es, &mut ts);
                     }
                 }
@@ -743,9 +669,8 @@ impl TetMesh {
                 let (x, y) = (s.ring[k], s.ring[(k + 1) % n]);
                 (x == p && y == q) || (x == q && y == p)
             });
-            let end = !s.closed
-                && ((p == inf || q == inf)
-                    && [p, q].iter().any(|&w| w == s.ring[0] || w == s.ring[n - 1]));
+            let end =
+                !s.closed && ((p == inf || q == inf) && [p, q].iter().any(|&w| w == s.ring[0] || w == s.ring[n - 1]));
             ring_edge || end
         };
         for &(p, q) in &ea {
@@ -760,13 +685,7 @@ impl TetMesh {
     }
 
     /// Collapses edge `e` of `t` (see [`TetMesh::check_collapse`]); returns the survivor.
-    pub fn collapse(
-        &mut self,
-        t: TetId,
-        e: usize,
-        reverse: bool,
-        pos: DVec3,
-    ) -> Result<TVertexId, Refusal> {
+    pub fn collapse(&mut self, t: TetId, e: usize, reverse: bool, pos: DVec3) -> Result<TVertexId, Refusal> {
         let plan = self.check_collapse(t, e, reverse, pos)?;
         let b = plan.subst.expect("collapse").1;
         self.apply_patch(plan);

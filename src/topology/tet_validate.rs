@@ -6,10 +6,7 @@ use crate::predicates::{insphere, Sign};
 use slotmap::Key;
 
 fn fail<K: Key>(invariant: Invariant, k: K) -> Result<(), InvariantViolation> {
-    Err(InvariantViolation {
-        invariant,
-        at: format!("{:?}", k.data()),
-    })
+    Err(InvariantViolation { invariant, at: format!("{:?}", k.data()) })
 }
 
 impl TetMesh {
@@ -42,8 +39,7 @@ impl TetMesh {
                     }
                     _ => return fail(NeighbourNotMutual, t),
                 }
-                if face_key(self.face_vertices(t, i)) != face_key(self.face_vertices(u, j as usize))
-                {
+                if face_key(self.face_vertices(t, i)) != face_key(self.face_vertices(u, j as usize)) {
                     return fail(SharedFaceMismatch, t);
                 }
             }

@@ -102,11 +102,7 @@ impl PartialEq for TetMesh {
     fn eq(&self, other: &Self) -> bool {
         self.vertices.len() == other.vertices.len()
             && self.tets.len() == other.tets.len()
-            && self
-                .vertices
-                .iter()
-                .zip(other.vertices.iter())
-                .all(|(a, b)| a == b)
+            && self.vertices.iter().zip(other.vertices.iter()).all(|(a, b)| a == b)
             && self.tets.iter().zip(other.tets.iter()).all(|(a, b)| a == b)
     }
 }
@@ -248,12 +244,7 @@ impl TetMesh {
     #[inline]
     pub fn tet_points(&self, t: TetId) -> [DVec3; 4] {
         let v = self.tets[t].v;
-        [
-            self.pos(v[0]),
-            self.pos(v[1]),
-            self.pos(v[2]),
-            self.pos(v[3]),
-        ]
+        [self.pos(v[0]), self.pos(v[1]), self.pos(v[2]), self.pos(v[3])]
     }
     /// Exact orientation of a tet.
     pub fn tet_orientation(&self, t: TetId) -> Sign {
@@ -271,19 +262,14 @@ impl TetMesh {
     /// Smallest and largest dihedral angle of a tet, in degrees.
     pub fn tet_dihedral_range(&self, t: TetId) -> (f64, f64) {
         let a = crate::quality::tet_dihedral_angles_deg(self.tet_points(t));
-        (
-            a.iter().copied().fold(f64::INFINITY, f64::min),
-            a.iter().copied().fold(0.0, f64::max),
-        )
+        (a.iter().copied().fold(f64::INFINITY, f64::min), a.iter().copied().fold(0.0, f64::max))
     }
     /// Smallest and largest dihedral angle over the mesh, in degrees.
     pub fn dihedral_range(&self) -> (f64, f64) {
         self.tets
             .keys()
             .map(|t| self.tet_dihedral_range(t))
-            .fold((f64::INFINITY, 0.0), |(lo, hi), (a, b)| {
-                (lo.min(a), hi.max(b))
-            })
+            .fold((f64::INFINITY, 0.0), |(lo, hi), (a, b)| (lo.min(a), hi.max(b)))
     }
     /// Total signed volume.
     pub fn volume(&self) -> f64 {
@@ -376,15 +362,11 @@ impl TetMesh {
         if !self.vertices.contains_key(a) || !self.vertices.contains_key(b) {
             return None;
         }
-        self.vertex_tets(a)
-            .into_iter()
-            .find(|&t| self.tets[t].v.contains(&b))
+        self.vertex_tets(a).into_iter().find(|&t| self.tets[t].v.contains(&b))
     }
     /// True when the triangle (a, b, c) is a face of some tet.
     pub fn has_face(&self, a: TVertexId, b: TVertexId, c: TVertexId) -> bool {
-        self.vertex_tets(a)
-            .into_iter()
-            .any(|t| self.tets[t].v.contains(&b) && self.tets[t].v.contains(&c))
+        self.vertex_tets(a).into_iter().any(|t| self.tets[t].v.contains(&b) && self.tets[t].v.contains(&c))
     }
     /// Every edge once, as (smaller key, larger key).
     pub fn edges(&self) -> Vec<(TVertexId, TVertexId)> {
@@ -433,11 +415,7 @@ impl TetMesh {
                 Some((u, _)) if u == t => break true,
                 Some((u, _)) => {
                     let ux = &self.tets[u];
-                    let z =
-                        ux.v.iter()
-                            .copied()
-                            .find(|&w| w != a && w != b && w != y)
-                            .expect("shell walk");
+                    let z = ux.v.iter().copied().find(|&w| w != a && w != b && w != y).expect("shell walk");
                     cur = u;
                     x = y;
                     y = z;
@@ -449,13 +427,7 @@ impl TetMesh {
         };
         if closed {
             ring.pop();
-            return EdgeShell {
-                a,
-                b,
-                tets,
-                ring,
-                closed,
-            };
+            return EdgeShell { a, b, tets, ring, closed };
         }
         // Backward from t: cross the face opposite y of (a, b, x, y) to reach (a, b, w, x).
         let mut back_t: SmallVec<[TetId; 8]> = SmallVec::new();
@@ -468,12 +440,7 @@ impl TetMesh {
             match self.tets[cur].adj[iy] {
                 None => break,
                 Some((u, _)) => {
-                    let w = self.tets[u]
-                        .v
-                        .iter()
-                        .copied()
-                        .find(|&w| w != a && w != b && w != x)
-                        .expect("shell walk");
+                    let w = self.tets[u].v.iter().copied().find(|&w| w != a && w != b && w != x).expect("shell walk");
                     back_t.push(u);
                     back_r.push(w);
                     cur = u;
@@ -489,13 +456,7 @@ impl TetMesh {
         back_r.reverse();
         back_t.extend(tets);
         back_r.extend(ring);
-        EdgeShell {
-            a,
-            b,
-            tets: back_t,
-            ring: back_r,
-            closed: false,
-        }
+        EdgeShell { a, b, tets: back_t, ring: back_r, closed: false }
     }
 
     /// The shell of edge a-b, if the edge exists.
@@ -509,10 +470,7 @@ impl TetMesh {
     /// Builds a mesh from points and tets (indices into `points`). Negatively oriented tets are
     /// reordered; flat ones are an error, as are unused points and faces shared by more than two
     /// tets. Returns the mesh and the vertex key of each point.
-    pub fn from_arrays(
-        points: &[DVec3],
-        tets: &[[usize; 4]],
-    ) -> Result<(Self, Vec<TVertexId>), crate::Error> {
+    pub fn from_arrays(points: &[DVec3], tets: &[[usize; 4]]) -> Result<(Self, Vec<TVertexId>), crate::Error> {
         use crate::Error::InvalidMesh;
         let mut m = TetMesh::with_capacity(points.len());
         let mut ids = Vec::with_capacity(points.len());
@@ -520,21 +478,13 @@ impl TetMesh {
             if !p.is_finite() {
                 return Err(InvalidMesh(format!("point {i} is not finite")));
             }
-            ids.push(m.vertices.insert(TVertex {
-                pos: p,
-                tet: TetId::null(),
-                tag: VertexTag::Interior,
-            }));
+            ids.push(m.vertices.insert(TVertex { pos: p, tet: TetId::null(), tag: VertexTag::Interior }));
         }
-        let mut faces: HashMap<[TVertexId; 3], (TetId, u8)> =
-            HashMap::with_capacity(tets.len() * 2);
+        let mut faces: HashMap<[TVertexId; 3], (TetId, u8)> = HashMap::with_capacity(tets.len() * 2);
         for (ti, t) in tets.iter().enumerate() {
             let mut t = *t;
             if t.iter().any(|&i| i >= points.len()) {
-                return Err(InvalidMesh(format!(
-                    "tet {ti} refers past the {} points",
-                    points.len()
-                )));
+                return Err(InvalidMesh(format!("tet {ti} refers past the {} points", points.len())));
             }
             if (0..4).any(|i| (i + 1..4).any(|j| t[i] == t[j])) {
                 return Err(InvalidMesh(format!("tet {ti} repeats a vertex")));
@@ -545,11 +495,7 @@ impl TetMesh {
                 Sign::Zero => return Err(InvalidMesh(format!("tet {ti} is flat"))),
             }
             let v = [ids[t[0]], ids[t[1]], ids[t[2]], ids[t[3]]];
-            let id = m.tets.insert(Tet {
-                v,
-                adj: [None; 4],
-                label: 0,
-            });
+            let id = m.tets.insert(Tet { v, adj: [None; 4], label: 0 });
             for &x in &v {
                 m.vertices[x].tet = id;
             }
@@ -558,9 +504,7 @@ impl TetMesh {
                 match faces.remove(&key) {
                     Some((u, j)) => {
                         if m.tets[u].adj[j as usize].is_some() {
-                            return Err(InvalidMesh(format!(
-                                "tet {ti}: a face is shared by more than two tets"
-                            )));
+                            return Err(InvalidMesh(format!("tet {ti}: a face is shared by more than two tets")));
                         }
                         m.tets[u].adj[j as usize] = Some((id, i as u8));
                         m.tets[id].adj[i] = Some((u, j));
@@ -605,12 +549,7 @@ impl TetMesh {
         let mut out = Vec::with_capacity(self.tets.len());
         let mut labels = Vec::with_capacity(self.tets.len());
         for tx in self.tets.values() {
-            out.push([
-                index[tx.v[0]],
-                index[tx.v[1]],
-                index[tx.v[2]],
-                index[tx.v[3]],
-            ]);
+            out.push([index[tx.v[0]], index[tx.v[1]], index[tx.v[2]], index[tx.v[3]]]);
             labels.push(tx.label);
         }
         (points, out, labels, keys)
@@ -656,11 +595,7 @@ mod tests {
         assert_eq!(orient3d(p[0], p[1], p[2], p[3]), Sign::Positive);
         for (i, f) in FACE_VERTICES.iter().enumerate() {
             assert!(!f.contains(&i), "face {i} must not hold vertex {i}");
-            assert_eq!(
-                orient3d(p[f[0]], p[f[1]], p[f[2]], p[i]),
-                Sign::Negative,
-                "face {i}"
-            );
+            assert_eq!(orient3d(p[f[0]], p[f[1]], p[f[2]], p[i]), Sign::Negative, "face {i}");
             // The outward normal points away from the centroid.
             let n = (p[f[1]] - p[f[0]]).cross(p[f[2]] - p[f[0]]);
             let c = (p[0] + p[1] + p[2] + p[3]) / 4.0;

@@ -1,8 +1,8 @@
 //! `validate()`: every invariant of [`TriMesh`], returned as a value that names what broke where.
 
-use super::trimesh::{MeshPoint, TriMesh};
 #[cfg(test)]
 use super::trimesh::{Face, Vertex, VertexTag};
+use super::trimesh::{MeshPoint, TriMesh};
 use crate::predicates::{incircle, Sign};
 use glam::DVec2;
 use slotmap::{Key, SecondaryMap};
@@ -273,7 +273,10 @@ mod tests {
         let g = m.face_ids().nth(1).unwrap();
         let h = m.faces[f].half_edge;
         m.half_edges[h].face = Some(g);
-        assert!(matches!(m.validate(Level::Topology).unwrap_err().invariant, Invariant::NextNotThreeCycle | Invariant::FaceHalfEdgeMismatch));
+        assert!(matches!(
+            m.validate(Level::Topology).unwrap_err().invariant,
+            Invariant::NextNotThreeCycle | Invariant::FaceHalfEdgeMismatch
+        ));
 
         let mut m = base.clone();
         let f = m.face_ids().next().unwrap();
@@ -297,7 +300,10 @@ mod tests {
         let h = m.half_edge_ids().find(|&h| m.face_of(h).is_none()).unwrap();
         let t = m.twin(h);
         m.half_edges[t].face = None;
-        assert!(matches!(m.validate(Level::Topology).unwrap_err().invariant, Invariant::DanglingEdge | Invariant::NextNotThreeCycle));
+        assert!(matches!(
+            m.validate(Level::Topology).unwrap_err().invariant,
+            Invariant::DanglingEdge | Invariant::NextNotThreeCycle
+        ));
 
         let mut m = base.clone();
         let v = m.vertex_ids().nth(4).unwrap(); // centre of the 2x2 grid
@@ -319,12 +325,20 @@ mod tests {
         expect(&m, Invariant::DanglingKey);
 
         let mut m = base.clone();
-        let v = m.vertices.insert(Vertex { pos: DVec2::new(9.0, 9.0), out: Default::default(), tag: VertexTag::Interior });
+        let v =
+            m.vertices.insert(Vertex { pos: DVec2::new(9.0, 9.0), out: Default::default(), tag: VertexTag::Interior });
         let _ = v;
         expect(&m, Invariant::IsolatedVertex);
 
         // Two fans at one vertex: glue two separate triangles at a vertex by hand.
-        let p = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0), DVec2::new(0.0, 0.0), DVec2::new(-1.0, 0.0), DVec2::new(0.0, -1.0)];
+        let p = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(0.0, 1.0),
+            DVec2::new(0.0, 0.0),
+            DVec2::new(-1.0, 0.0),
+            DVec2::new(0.0, -1.0),
+        ];
         let (mut m, ids) = TriMesh::from_arrays(&p, &[[0, 1, 2], [3, 4, 5]]).unwrap();
         // Rename vertex 3 to vertex 0 everywhere: vertex 0 now has two boundary fans.
         for e in m.half_edges.values_mut() {
