@@ -37,6 +37,10 @@ const TTOL: f64 = 0.1;
 const DENSITY_EVERY: usize = 10;
 /// A boundary node leaves the boundary only once the ear it leaves behind has this quality.
 const EAR_Q: f64 = 0.2;
+/// The run stops on a quality plateau: the mean quality, sampled every DENSITY_EVERY
+/// iterations, gained less than this over PLATEAU_WINDOWS samples in a row.
+const QUALITY_PLATEAU: f64 = 1e-6;
+const PLATEAU_WINDOWS: usize = 30;
 /// Chunk size of the deterministic parallel loops.
 const CHUNK: usize = 4096;
 
@@ -733,7 +737,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
         if max_move < opts.dptol && iter > DENSITY_EVERY {
             converged = true;
-            ctx.report.stop_reason = format!("interior nodes moved less than dptol = {} (relative to h)", opts.dptol);
+            ctx.report.stop_reason = format!("nodes moved less than dptol = {} (relative to h)", opts.dptol);
             break;
         }
         if iter % DENSITY_EVERY == 0 {
@@ -749,9 +753,9 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                     ctx.joined
                 );
             }
-            if q - last_q < 1e-6 {
+            if q - last_q < QUALITY_PLATEAU {
                 stall += 1;
-                if stall >= 30 {
+                if stall >= PLATEAU_WINDOWS {
                     converged = true;
                     ctx.report.stop_reason = "mean quality stopped improving".into();
                     break;
