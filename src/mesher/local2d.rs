@@ -41,6 +41,9 @@ const EAR_Q: f64 = 0.2;
 /// iterations, gained less than this over PLATEAU_WINDOWS samples in a row.
 const QUALITY_PLATEAU: f64 = 1e-6;
 const PLATEAU_WINDOWS: usize = 30;
+/// Starting from a previous mesh, its boundary vertices up to this many local sizes outside
+/// the new domain are kept (and projected) rather than dropped.
+const CARRY_BOUNDARY: f64 = 0.5;
 /// Chunk size of the deterministic parallel loops.
 const CHUNK: usize = 4096;
 
@@ -102,6 +105,23 @@ pub(crate) fn run_from(
     opts: &Options2,
     start: Option<&TriMesh<DVec2>>,
 ) -> Result<MeshOutput2, Error> {
+    run_moving(domain, opts, start, None)
+}
+
+/// Nodes to hold still during a moving-mesh step: those more than `rings` edges away from
+/// every node where the old and the new geometry disagree (seed section 5.1: stiffness grows
+/// with the distance from the moving boundary; here it becomes infinite past a few rings).
+pub(crate) struct Freeze<'a> {
+    pub old_domain: &'a dyn Implicit2,
+    pub rings: usize,
+}
+
+pub(crate) fn run_moving(
+    domain: &dyn Implicit2,
+    opts: &Options2,
+    start: Option<&TriMesh<DVec2>>,
+    freeze: Option<Freeze>,
+) -> Result<MeshOutput2, Error> {
     let t0 = Instant::now();
     let survey = survey(domain, opts)?;
     let projection = match opts.projection {
@@ -132,10 +152,20 @@ pub(crate) fn run_from(
                 let tag = if opts.fixed.contains(&prev.pos(v)) { VertexTag::Fixed } else { VertexTag::Interior };
                 fixed_prev.set_tag(v, tag);
             }
-            carve(&ctx, &fixed_prev)?
+            carve(&ctx, &fixed_prev, CARRY_BOUNDARY)?
         }
     };
+    let frozen = match &freeze {
+        Some(fz) => freeze_far_nodes(&ctx, &mut mesh, fz)?,
+        None => Vec::new(),
+    };
     equilibrium(&mut ctx, &mut mesh)?;
+    for v in frozen {
+        if mesh.contains_vertex(v) {
+            let tag = if mesh.is_boundary_vertex(v) { VertexTag::Boundary } else { VertexTag::Interior };
+            mesh.set_tag(v, tag);
+        }
+    }
     if let Err(e) = mesh.validate(Level::Geometry) {
         return Err(Error::Internal(format!("the finished mesh is invalid: {e}")));
     }
@@ -211,7 +241,7 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
             )));
         }
     }
-    carve(ctx, &m)
+    carve(ctx, &m, 0.0)
 }
 
 /// A face is certainly outside when its approximate distance at the centroid exceeds its
@@ -237,13 +267,20 @@ fn edge_certainly_outside(ctx: &Ctx, m: &TriMesh<DVec2>, h: HalfEdgeId) -> Resul
 
 /// Keeps the triangles whose centroid is inside (d < -geps), repairs pinched vertices, and
 /// tags the boundary.
-fn carve(ctx: &Ctx, m: &TriMesh<DVec2>) -> Result<TriMesh<DVec2>, Error> {
+fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<DVec2>, Error> {
     let (points, tris, _, keys) = m.to_arrays();
     // As the seed keeps only grid points with d < geps, keep the triangles whose three
-    // vertices are inside; the pressure then pushes the outer row onto the boundary.
+    // vertices are inside; the pressure then pushes the outer row onto the boundary. Boundary
+    // vertices of a previous mesh count as inside up to `boundary_slack` relative sizes
+    // outside: they are projected onto the moved boundary instead of dropped with their row.
     let mut inside = vec![false; points.len()];
     for (i, p) in points.iter().enumerate() {
-        inside[i] = ctx.d(*p)? < ctx.geps;
+        let slack = if boundary_slack > 0.0 && m.is_boundary_vertex(keys[i]) {
+            boundary_slack * ctx.opts.h0 * ctx.h(*p)?
+        } else {
+            0.0
+        };
+        inside[i] = ctx.d(*p)? < ctx.geps + slack;
     }
     let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
     let mut keep: Vec<[usize; 3]> = Vec::with_capacity(tris.len());
@@ -297,6 +334,42 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>) -> Result<TriMesh<DVec2>, Error> {
     }
     restore_fixed(ctx, &mut out)?;
     Ok(out)
+}
+
+/// Tags `Fixed` every non-fixed node farther than `rings` edges from the nodes where the old
+/// and new distance functions differ; returns them so that their tags can be restored.
+fn freeze_far_nodes(ctx: &Ctx, m: &mut TriMesh<DVec2>, fz: &Freeze) -> Result<Vec<VertexId>, Error> {
+    let mut ring: SecondaryMap<VertexId, usize> = SecondaryMap::new();
+    let mut front: Vec<VertexId> = Vec::new();
+    for v in m.vertex_ids() {
+        let p = m.pos(v);
+        let (dn, dold) = (ctx.d(p)?, fz.old_domain.value(p));
+        let off_boundary = m.is_boundary_vertex(v) && dn.abs() > ctx.geps;
+        // Only where the boundary itself moved: near the old or the new zero set.
+        let near = dn.abs().min(dold.abs()) < 1.5 * ctx.opts.h0 * ctx.h(p)?;
+        if ((dn - dold).abs() > 1e-12 * (1.0 + dn.abs()) && near) || off_boundary {
+            ring.insert(v, 0);
+            front.push(v);
+        }
+    }
+    for k in 1..=fz.rings {
+        let mut next = Vec::new();
+        for &v in &front {
+            for w in m.neighbours(v) {
+                if !ring.contains_key(w) {
+                    ring.insert(w, k);
+                    next.push(w);
+                }
+            }
+        }
+        front = next;
+    }
+    let frozen: Vec<VertexId> =
+        m.vertex_ids().filter(|&v| !ring.contains_key(v) && m.tag(v) != VertexTag::Fixed).collect();
+    for &v in &frozen {
+        m.set_tag(v, VertexTag::Fixed);
+    }
+    Ok(frozen)
 }
 
 /// Fixed points whose triangles were all carved away go back in: inside the mesh by insertion,

@@ -48,3 +48,17 @@ pub fn mesh_2d(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, c
 pub fn remesh_2d(prev: &TriMesh<DVec2>, domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, crate::Error> {
     local2d::run_from(domain, opts, Some(prev))
 }
+
+/// One step of a moving mesh with freezing: as [`remesh_2d`], but nodes more than
+/// `freeze_rings` edges away from every node where `old_domain` and `new_domain` disagree are
+/// held still for the step (seed section 5.1: the stiffness grows with the distance from the
+/// moving boundary), so that only the neighbourhood of the motion is remeshed.
+pub fn move_mesh_2d(
+    prev: &TriMesh<DVec2>,
+    old_domain: &dyn Implicit2,
+    new_domain: &dyn Implicit2,
+    opts: &Options2,
+    freeze_rings: usize,
+) -> Result<MeshOutput2, crate::Error> {
+    local2d::run_moving(new_domain, opts, Some(prev), Some(local2d::Freeze { old_domain, rings: freeze_rings }))
+}
