@@ -61,6 +61,8 @@ struct Ctx<'a> {
     report: Report,
     left: usize,
     joined: usize,
+    /// The run starts from a previous mesh (moving meshes, remeshing).
+    from_previous: bool,
 }
 
 impl Ctx<'_> {
@@ -138,6 +140,7 @@ pub(crate) fn run_moving(
         report: Report::default(),
         left: 0,
         joined: 0,
+        from_previous: start.is_some(),
     };
     let mut mesh = match start {
         None => initial_mesh(&mut ctx, survey.estimated_triangles)?,
@@ -713,7 +716,13 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         let mut joining: Vec<usize> = snap
             .apexes
             .iter()
-            .filter(|&&(v, a, b)| orient2d(p[a as usize], p[b as usize], newp[v as usize]) != Sign::Positive)
+            .filter(|&&(v, a, b)| {
+                let (pa, pb, pv) = (p[a as usize], p[b as usize], newp[v as usize]);
+                // Crossing the boundary edge; when starting from a previous mesh, also squashed
+                // flat onto it (the carried boundary rows leave such slivers behind).
+                orient2d(pa, pb, pv) != Sign::Positive
+                    || (ctx.from_previous && crate::quality::triangle_q([pa, pb, pv]) < EAR_Q)
+            })
             .map(|&(v, _, _)| v as usize)
             .collect();
         joining.dedup();
