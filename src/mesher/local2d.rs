@@ -44,6 +44,10 @@ const PLATEAU_WINDOWS: usize = 30;
 /// Starting from a previous mesh, its boundary vertices up to this many local sizes outside
 /// the new domain are kept (and projected) rather than dropped.
 const CARRY_BOUNDARY: f64 = 0.5;
+/// Remeshing for a new size field first splits and collapses edges outside this band of
+/// target lengths (split above, collapse below), for at most ADAPT_ROUNDS rounds.
+const ADAPT_BAND: (f64, f64) = (1.4, 0.7);
+const ADAPT_ROUNDS: usize = 8;
 /// Chunk size of the deterministic parallel loops.
 const CHUNK: usize = 4096;
 
@@ -107,7 +111,7 @@ pub(crate) fn run_from(
     opts: &Options2,
     start: Option<&TriMesh<DVec2>>,
 ) -> Result<MeshOutput2, Error> {
-    run_moving(domain, opts, start, None)
+    run_moving(domain, opts, start, None, false)
 }
 
 /// Nodes to hold still during a moving-mesh step: those more than `rings` edges away from
@@ -123,6 +127,7 @@ pub(crate) fn run_moving(
     opts: &Options2,
     start: Option<&TriMesh<DVec2>>,
     freeze: Option<Freeze>,
+    adapt: bool,
 ) -> Result<MeshOutput2, Error> {
     let t0 = Instant::now();
     let survey = survey(domain, opts)?;
@@ -158,6 +163,17 @@ pub(crate) fn run_moving(
             carve(&ctx, &fixed_prev, CARRY_BOUNDARY)?
         }
     };
+    if adapt {
+        // Seed 5.2: density control first, without regard to quality, with a tight band.
+        for _ in 0..ADAPT_ROUNDS {
+            let snap = Snapshot::build(&mesh);
+            let p: Vec<DVec2> = snap.ids.iter().map(|&v| mesh.pos(v)).collect();
+            let cands = density_candidates(&ctx, &snap, &p, opts.h0, ADAPT_BAND)?;
+            if cands.is_empty() || !density_control(&mut ctx, &mut mesh, cands)? {
+                break;
+            }
+        }
+    }
     let frozen = match &freeze {
         Some(fz) => freeze_far_nodes(&ctx, &mut mesh, fz)?,
         None => Vec::new(),
@@ -800,7 +816,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
         // Density control and repair of bad triangles.
         if iter % DENSITY_EVERY == 0 {
-            let cands = density_candidates(ctx, &snap, &p, (sl / sh).sqrt())?;
+            let cands = density_candidates(ctx, &snap, &p, (sl / sh).sqrt(), (SPLIT_ABOVE, COLLAPSE_BELOW))?;
             if !cands.is_empty() {
                 write_back(m, &snap, &p);
                 topo_changed |= density_control(ctx, m, cands)?;
@@ -857,7 +873,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     // Final cleanup: repair bad triangles, restore Delaunay.
     let snap = Snapshot::build(m);
     let p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
-    let cands = density_candidates(ctx, &snap, &p, unit)?;
+    let cands = density_candidates(ctx, &snap, &p, unit, (SPLIT_ABOVE, COLLAPSE_BELOW))?;
     density_control(ctx, m, cands)?;
     ctx.report.flips += m.make_delaunay();
     settle_boundary(ctx, m)?;
@@ -1067,7 +1083,13 @@ impl Candidates {
     }
 }
 
-fn density_candidates(ctx: &Ctx, snap: &Snapshot, p: &[DVec2], unit: f64) -> Result<Candidates, Error> {
+fn density_candidates(
+    ctx: &Ctx,
+    snap: &Snapshot,
+    p: &[DVec2],
+    unit: f64,
+    (split_above, collapse_below): (f64, f64),
+) -> Result<Candidates, Error> {
     let h0 = ctx.opts.h0;
     // (ratio, edge, +1 long / -1 short)
     let marks: Vec<(f64, HalfEdgeId, i8)> = snap
@@ -1081,9 +1103,9 @@ fn density_candidates(ctx: &Ctx, snap: &Snapshot, p: &[DVec2], unit: f64) -> Res
                 Err(e) => return Some(Err(e)),
             };
             let r = pa.distance(pb) / (h0 * hm);
-            if r > SPLIT_ABOVE {
+            if r > split_above {
                 Some(Ok((r, h, 1)))
-            } else if r < COLLAPSE_BELOW {
+            } else if r < collapse_below {
                 Some(Ok((r, h, -1)))
             } else if boundary {
                 // Boundary spacing follows the mesh's own current scale (the interior sets it):

@@ -1,5 +1,6 @@
 //! The meshing pipelines: implicit geometry and size function in, mesh and report out.
 
+pub mod background;
 mod classic2d;
 pub mod image;
 mod input;
@@ -49,6 +50,52 @@ pub fn remesh_2d(prev: &TriMesh<DVec2>, domain: &dyn Implicit2, opts: &Options2)
     local2d::run_from(domain, opts, Some(prev))
 }
 
+/// Remeshing for adaptation (seed section 5.2): the old mesh is the background for d (its
+/// boundary, [`background::BoundaryDistance`]) and for h (`h_nodes`, one size per vertex in
+/// `old.vertex_ids()` order, gradient limited on the old mesh with slope `g`), then the old
+/// mesh is carved, its density controlled by splits and collapses, and the forces iterated.
+/// Boundary corners sharper than 30 degrees are kept as fixed points; `h0` is the smallest
+/// limited size (sizes are absolute here), the box the old mesh's bounding box.
+pub fn remesh_adapt_2d(
+    old: &TriMesh<DVec2>,
+    h_nodes: Vec<f64>,
+    g: f64,
+    max_iter: usize,
+) -> Result<MeshOutput2, crate::Error> {
+    use background::{BoundaryDistance, MeshSize};
+    if let Err(e) = old.validate(crate::topology::Level::Geometry) {
+        return Err(crate::Error::InvalidMesh(format!(
+            "the mesh to remesh is invalid ({e}): inverted or broken elements"
+        )));
+    }
+    let size = MeshSize::new(old, h_nodes, g)?;
+    let hmin = size.values().iter().copied().fold(f64::INFINITY, f64::min);
+    let domain = BoundaryDistance::of(old);
+    let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    for (_, v) in old.vertices() {
+        lo = lo.min(v.pos);
+        hi = hi.max(v.pos);
+    }
+    let pad = DVec2::splat(hmin);
+    // Corners: boundary vertices where the boundary turns by more than 30 degrees.
+    let mut corners = Vec::new();
+    for lp in old.boundary_loops() {
+        for h in lp {
+            let (a, b, c) = (old.pos(old.origin(h)), old.pos(old.dest(h)), old.pos(old.dest(old.next(h))));
+            let (u, w) = ((b - a).normalize(), (c - b).normalize());
+            let vb = old.dest(h);
+            if old.tag(vb) == crate::topology::VertexTag::Fixed || u.dot(w) < 30f64.to_radians().cos() {
+                corners.push([b.x, b.y]);
+            }
+        }
+    }
+    let opts = Options2::uniform(hmin, (lo - pad).into(), (hi + pad).into())
+        .with_size(move |p| size.at(p))
+        .with_fixed(corners)
+        .with_max_iter(max_iter);
+    local2d::run_moving(&domain, &opts, Some(old), None, true)
+}
+
 /// One step of a moving mesh with freezing: as [`remesh_2d`], but nodes more than
 /// `freeze_rings` edges away from every node where `old_domain` and `new_domain` disagree are
 /// held still for the step (seed section 5.1: the stiffness grows with the distance from the
@@ -60,5 +107,5 @@ pub fn move_mesh_2d(
     opts: &Options2,
     freeze_rings: usize,
 ) -> Result<MeshOutput2, crate::Error> {
-    local2d::run_moving(new_domain, opts, Some(prev), Some(local2d::Freeze { old_domain, rings: freeze_rings }))
+    local2d::run_moving(new_domain, opts, Some(prev), Some(local2d::Freeze { old_domain, rings: freeze_rings }), false)
 }

@@ -1,0 +1,58 @@
+//! Remeshing for adaptation (seed section 5.2, figure 5-8): a uniform mesh of the unit square
+//! is remeshed for a size field with a point singularity (the shape of an energy-norm error
+//! estimate for Poisson's equation with a delta source), gradient limited on the old mesh.
+
+use glam::DVec2;
+use trussmesh::geometry::Rectangle;
+use trussmesh::mesher::{mesh_2d, remesh_adapt_2d, Options2};
+use trussmesh::topology::Level;
+
+#[test]
+fn figure_5_8_point_singularity() {
+    let square = Rectangle::new([0.0, 0.0], [1.0, 1.0]);
+    let opts =
+        Options2::uniform(0.05, [0.0, 0.0], [1.0, 1.0]).with_fixed([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    let old = mesh_2d(&square, &opts).unwrap().mesh;
+    let src = DVec2::new(0.5, 0.5);
+    let g = 0.3;
+    // Requested size: small at the singularity, growing faster than g allows.
+    let raw = |p: DVec2| 0.01 + 0.8 * p.distance(src);
+    let h_nodes: Vec<f64> = old.vertex_ids().map(|v| raw(old.pos(v))).collect();
+    let out = remesh_adapt_2d(&old, h_nodes, g, 1000).unwrap();
+    let m = &out.mesh;
+    m.validate(Level::Geometry).unwrap();
+    println!("{}", out.report);
+    if let Some(f) = m.face_ids().min_by(|&a, &b| m.face_quality(a).total_cmp(&m.face_quality(b))) {
+        let desc: Vec<String> = m
+            .face_vertices(f)
+            .iter()
+            .map(|&v| format!("{:?} {:?} valence {}", m.pos(v), m.tag(v), m.valence(v)))
+            .collect();
+        println!("worst triangle q {:.3}: {}", m.face_quality(f), desc.join(" | "));
+    }
+    // The gradient-limited size of a point source is h(x) = min(raw(x), 0.01 + g |x - src|).
+    let limited = |p: DVec2| raw(p).min(0.01 + g * p.distance(src));
+    let mut ratios: Vec<f64> = m
+        .edge_ids()
+        .map(|h| {
+            let (a, b) = (m.pos(m.origin(h)), m.pos(m.dest(h)));
+            a.distance(b) / limited((a + b) * 0.5)
+        })
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    let median = ratios[ratios.len() / 2];
+    let q = out.report.quality;
+    println!("| old nodes | new nodes | q min | q mean | median edge / limited h | 10% / 90% |");
+    println!(
+        "| {} | {} | {:.3} | {:.4} | {:.3} | {:.3} / {:.3} |",
+        old.num_vertices(),
+        q.vertices,
+        q.q_min,
+        q.q_mean,
+        median,
+        ratios[ratios.len() / 10],
+        ratios[ratios.len() * 9 / 10]
+    );
+    assert!((median - 1.0).abs() <= 0.1, "median ratio {median}");
+    assert!(q.q_mean >= 0.95, "q mean {}", q.q_mean);
+}
