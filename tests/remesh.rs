@@ -56,3 +56,43 @@ fn figure_5_8_point_singularity() {
     assert!((median - 1.0).abs() <= 0.1, "median ratio {median}");
     assert!(q.q_mean >= 0.95, "q mean {}", q.q_mean);
 }
+
+#[test]
+fn command_line_remesh_and_bad_input() {
+    let exe = env!("CARGO_BIN_EXE_trussmesh");
+    let dir = std::env::temp_dir().join(format!("trussmesh-remesh-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let square = Rectangle::new([0.0, 0.0], [1.0, 1.0]);
+    let opts =
+        Options2::uniform(0.1, [0.0, 0.0], [1.0, 1.0]).with_fixed([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    let old = mesh_2d(&square, &opts).unwrap().mesh;
+    let old_path = dir.join("old.json");
+    trussmesh::io::write_mesh(&old_path, &trussmesh::io::MeshData::from_trimesh2(&old)).unwrap();
+    let new_path = dir.join("new.vtu");
+    let o = std::process::Command::new(exe)
+        .args(["remesh", old_path.to_str().unwrap(), "--size", "0.03+0.3*sqrt((x-0.5)^2+(y-0.5)^2)", "--quiet"])
+        .args(["-o", new_path.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    let new = trussmesh::io::read_mesh(&new_path).unwrap();
+    let near = |pts: Vec<[f64; 3]>| pts.iter().filter(|p| (p[0] - 0.5).hypot(p[1] - 0.5) < 0.15).count();
+    let (before, after) =
+        (near(old.vertices().map(|(_, v)| [v.pos.x, v.pos.y, 0.0]).collect()), near(new.points.clone()));
+    assert!(after > 2 * before, "finer near the centre: {before} nodes before, {after} after");
+    // An inverted triangle in the input: exit 2 and a message that says so.
+    let bad = dir.join("inverted.json");
+    std::fs::write(
+        &bad,
+        r#"{"dim": 2, "cell_type": "triangle", "points": [[0,0],[1,0],[0,1],[1,1]], "cells": [[0,1,2],[1,2,3]]}"#,
+    )
+    .unwrap();
+    let o = std::process::Command::new(exe)
+        .args(["remesh", bad.to_str().unwrap(), "--size", "0.1", "-o", "x.vtu"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let msg = String::from_utf8_lossy(&o.stderr);
+    assert!(msg.contains("invalid") || msg.contains("inverted") || msg.contains("orientation"), "{msg}");
+    std::fs::remove_dir_all(&dir).ok();
+}

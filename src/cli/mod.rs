@@ -3,6 +3,7 @@
 mod gallery;
 mod image;
 mod mesh;
+mod remesh;
 mod stats;
 
 use clap::{Parser, Subcommand};
@@ -58,6 +59,8 @@ pub enum Command {
     Gallery(gallery::GalleryArgs),
     /// Mesh the bright region of a PNG picture (pixel coordinates, y down).
     Image(image::ImageArgs),
+    /// Remesh a 2-D mesh file for a new size field (gradient limited on the old mesh).
+    Remesh(remesh::RemeshArgs),
 }
 
 /// Runs the command line and returns the exit code.
@@ -88,5 +91,6 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Stats(a) => stats::run(a),
         Command::Gallery(a) => gallery::run(a),
         Command::Image(a) => image::run(a),
+        Command::Remesh(a) => remesh::run(a),
     }
 }

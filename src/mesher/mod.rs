@@ -84,7 +84,10 @@ pub fn remesh_adapt_2d(
             let (a, b, c) = (old.pos(old.origin(h)), old.pos(old.dest(h)), old.pos(old.dest(old.next(h))));
             let (u, w) = ((b - a).normalize(), (c - b).normalize());
             let vb = old.dest(h);
-            if old.tag(vb) == crate::topology::VertexTag::Fixed || u.dot(w) < 30f64.to_radians().cos() {
+            let tol = 1e-9 * (hi - lo).length();
+            let is_corner = old.tag(vb) == crate::topology::VertexTag::Fixed || u.dot(w) < 30f64.to_radians().cos();
+            // A node crowded onto a corner (a near duplicate) is not a second corner.
+            if is_corner && !corners.iter().any(|c: &[f64; 2]| DVec2::from(*c).distance(b) <= tol) {
                 corners.push([b.x, b.y]);
             }
         }
