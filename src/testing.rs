@@ -188,7 +188,7 @@ pub fn run_ops(data: &[u8]) {
         0 => single_triangle(),
         1 => two_triangles(),
         2 => vertex_onering(3 + (kind as usize / 5) % 8),
-        3 => grid(1 + (kind as usize / 5) % 4, 1 + (kind as usize / 20) % 4, 0.3, kind as u64),
+        3 => grid(1 + (kind as usize / 5) % 4, 1 + (kind as usize / 20) % 4, 0.2, kind as u64),
         _ => {
             let n = 3 + (kind as usize / 5) % 40;
             TriMesh::delaunay(&random_points(n, kind as u64)).expect("random points").0

@@ -3,6 +3,7 @@
 
 use glam::DVec2;
 use proptest::prelude::*;
+use proptest::test_runner::RngSeed;
 use trussmesh::testing::{
     self, apply_op, check_ops, grid, random_points, single_triangle, two_triangles, vertex_onering, Op,
 };
@@ -237,7 +238,8 @@ fn op_strategy() -> impl Strategy<Value = Op> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+    // A fixed seed: CI runs the same cases every time (failures are kept in the regressions file).
+    #![proptest_config(ProptestConfig { cases: 512, rng_seed: RngSeed::Fixed(testing::SEED), ..ProptestConfig::default() })]
 
     #[test]
     fn random_ops_keep_mesh_valid(n in 3usize..60, seed in any::<u64>(), ops in proptest::collection::vec(op_strategy(), 1..120)) {
@@ -248,7 +250,9 @@ proptest! {
 
     #[test]
     fn random_ops_on_grids(nx in 1usize..6, ny in 1usize..6, seed in any::<u64>(), ops in proptest::collection::vec(op_strategy(), 1..120)) {
-        let mut m = grid(nx, ny, 0.3, seed);
+        // Jitter 0.2 of a cell keeps every starting triangle positive (0.3 can invert one).
+        let mut m = grid(nx, ny, 0.2, seed);
+        m.validate(Level::Geometry).unwrap();
         check_ops(&mut m, &ops);
         // Split-only growth then Delaunay keeps the Delaunay invariant.
         let _ = apply_op(&mut m, Op::Delaunay);

@@ -616,7 +616,26 @@ impl<P: MeshPoint> TriMesh<P> {
         if a == c || self.find_half_edge(a, c).is_some() {
             return Err(Refusal::DuplicateEdge);
         }
-        positive(P::orientation(self.pos(a), self.pos(b), self.pos(c)))?;
+        let (pa, pb, pc) = (self.pos(a), self.pos(b), self.pos(c));
+        positive(P::orientation(pa, pb, pc))?;
+        // Planar meshes: the ear must not cover a neighbouring vertex (it would overlap the
+        // triangles there). Surfaces have no global orientation to test this with.
+        if !P::NEEDS_DUPLICATE_EDGE_CHECK {
+            for v in [a, b, c] {
+                for w in self.neighbours(v) {
+                    if w == a || w == b || w == c {
+                        continue;
+                    }
+                    let pw = self.pos(w);
+                    let inside = P::orientation(pa, pb, pw) != Sign::Negative
+                        && P::orientation(pb, pc, pw) != Sign::Negative
+                        && P::orientation(pc, pa, pw) != Sign::Negative;
+                    if inside {
+                        return Err(Refusal::NotConvex);
+                    }
+                }
+            }
+        }
         let hp = self.prev(h);
         let gn = self.next(g);
         let f = self.faces.insert(Face { half_edge: h, label });
