@@ -18,6 +18,7 @@ struct Row {
     bdev: f64,
     area_err: Option<f64>,
     iterations: usize,
+    off: usize,
 }
 
 fn run(name: &str) -> Row {
@@ -38,6 +39,7 @@ fn run(name: &str) -> Row {
         bdev: boundary_deviation(m, &domain) / opts.h0,
         area_err: ex.exact_area().map(|a| (area(m) - a).abs() / a),
         iterations: out.report.iterations,
+        off: out.report.boundary_nodes_off,
     };
     println!("| example | nodes | triangles | q min | q mean | size dev | max |d|/h0 | area err | iterations |");
     println!(
@@ -66,6 +68,7 @@ fn check(name: &str, min_q: Option<f64>) {
         ex.build().unwrap().1.h0
     };
     assert!(r.bdev <= 1e-3, "{name}: boundary nodes {:.2e} h0 from the boundary", r.bdev);
+    assert_eq!(r.off, 0, "{name}: the report counts boundary nodes off the boundary");
     if let Some(e) = r.area_err {
         if h0 <= 0.2 {
             assert!(e <= 0.01, "{name}: area error {:.3}%", 100.0 * e);

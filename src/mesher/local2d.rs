@@ -999,6 +999,12 @@ fn settle_boundary(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
         ctx.report.flips += m.make_delaunay();
     }
+    // What could not be settled is reported, not hidden.
+    ctx.report.boundary_nodes_off = m
+        .vertex_ids()
+        .filter(|&v| m.tag(v) == VertexTag::Boundary && m.is_boundary_vertex(v))
+        .filter(|&v| ctx.approx_dist(m.pos(v)).map(|d| d.abs() > tol).unwrap_or(true))
+        .count();
     Ok(())
 }
 

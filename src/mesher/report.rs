@@ -68,6 +68,9 @@ pub struct Report {
     pub splits: usize,
     /// Edge collapses done.
     pub collapses: usize,
+    /// Boundary nodes left farther than 1e-3 h0 from d = 0 (projection and merging refused;
+    /// 0 in a good run).
+    pub boundary_nodes_off: usize,
     /// Quality of the result.
     pub quality: QualityStats,
 }
@@ -85,7 +88,15 @@ impl std::fmt::Display for Report {
             "q min {:.4}, q mean {:.4}, angles {:.1} to {:.1} degrees",
             q.q_min, q.q_mean, q.angle_min, q.angle_max
         )?;
-        write!(f, "{} flips, {} splits, {} collapses", self.flips, self.splits, self.collapses)
+        write!(f, "{} flips, {} splits, {} collapses", self.flips, self.splits, self.collapses)?;
+        if self.boundary_nodes_off > 0 {
+            write!(
+                f,
+                "\nwarning: {} boundary nodes are off the boundary (more than 1e-3 h0)",
+                self.boundary_nodes_off
+            )?;
+        }
+        Ok(())
     }
 }
 
