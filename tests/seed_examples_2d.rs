@@ -269,3 +269,13 @@ fn domain_is_used_only_through_the_trait() {
     out.mesh.validate(Level::Geometry).unwrap();
     assert!(out.report.quality.q_mean > 0.95);
 }
+
+#[test]
+fn classic_baseline_runs_every_example() {
+    for ex in EXAMPLES {
+        let (domain, opts) = ex.build().unwrap();
+        let out = mesh_2d(&domain, &opts.with_strategy(Strategy::GlobalDelaunay))
+            .unwrap_or_else(|e| panic!("{}: {e}", ex.name));
+        out.mesh.validate(Level::Geometry).unwrap_or_else(|e| panic!("{}: {e}", ex.name));
+    }
+}

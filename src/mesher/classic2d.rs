@@ -147,10 +147,18 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
     }
     // Final triangulation; drop unused points; inverted or flat triangles cannot occur in a
     // Delaunay triangulation but zero-area ones can at exact collinearity: drop them.
-    let tris: Vec<[usize; 3]> = triangulate(domain, &p, geps)?
+    let mut tris: Vec<[usize; 3]> = triangulate(domain, &p, geps)?
         .into_iter()
         .filter(|t| crate::predicates::orient2d(p[t[0]], p[t[1]], p[t[2]]) == crate::predicates::Sign::Positive)
         .collect();
+    // Dropping outside triangles can pinch the boundary at a vertex: keep its largest fan.
+    for _ in 0..64 {
+        let pinched = super::local2d::pinched_vertices(p.len(), &tris);
+        if pinched.is_empty() {
+            break;
+        }
+        tris = super::local2d::drop_small_fans(&tris, &pinched, p.len());
+    }
     let mut map = vec![usize::MAX; p.len()];
     let mut pts = Vec::new();
     for t in &tris {

@@ -431,7 +431,7 @@ fn restore_fixed(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
 }
 
 /// Vertices with more than one boundary edge leaving them in a triangle list.
-fn pinched_vertices(n: usize, tris: &[[usize; 3]]) -> Vec<usize> {
+pub(crate) fn pinched_vertices(n: usize, tris: &[[usize; 3]]) -> Vec<usize> {
     let mut dir = std::collections::HashSet::with_capacity(tris.len() * 3);
     for t in tris {
         for k in 0..3 {
@@ -452,7 +452,7 @@ fn pinched_vertices(n: usize, tris: &[[usize; 3]]) -> Vec<usize> {
 }
 
 /// For each pinched vertex keeps only its largest fan of triangles.
-fn drop_small_fans(tris: &[[usize; 3]], pinched: &[usize], n: usize) -> Vec<[usize; 3]> {
+pub(crate) fn drop_small_fans(tris: &[[usize; 3]], pinched: &[usize], n: usize) -> Vec<[usize; 3]> {
     let mut is_pinched = vec![false; n];
     for &v in pinched {
         is_pinched[v] = true;
