@@ -279,3 +279,30 @@ fn classic_baseline_runs_every_example() {
         out.mesh.validate(Level::Geometry).unwrap_or_else(|e| panic!("{}: {e}", ex.name));
     }
 }
+
+#[test]
+fn ex1_from_a_grid() {
+    // Seed example 1 with d sampled on [-1.1, 1.1]^2 at spacing 0.1 and interpolated bilinearly.
+    let circle = Circle::new([0.0, 0.0], 1.0);
+    let grid = trussmesh::geometry::Grid2::sample(&circle, DVec2::new(-1.1, -1.1), DVec2::new(1.1, 1.1), 0.1).unwrap();
+    let out = mesh_2d(&grid, &Options2::uniform(0.2, [-1.0, -1.0], [1.0, 1.0])).unwrap();
+    let m = &out.mesh;
+    m.validate(Level::Geometry).unwrap();
+    let q = out.report.quality;
+    // Boundary nodes lie on the interpolated zero set; against the true circle the error is
+    // the interpolation error of a 0.1 grid.
+    let bdev_grid = boundary_deviation(m, &grid);
+    let bdev_true = boundary_deviation(m, &circle);
+    println!(
+        "| ex1 from a grid | {} | {} | {:.3} | {:.4} | grid {:.1e} h0, true circle {:.1e} |",
+        q.vertices,
+        q.triangles,
+        q.q_min,
+        q.q_mean,
+        bdev_grid / 0.2,
+        bdev_true
+    );
+    assert!(bdev_grid <= 1e-3 * 0.2);
+    assert!(bdev_true <= 0.01, "bilinear interpolation error {bdev_true}");
+    assert!(q.q_mean >= 0.97 && q.q_min >= 0.7, "{q:?}");
+}
