@@ -6,6 +6,7 @@
 //! Set `TRUSSMESH_TRACE=1` to print the state every ten iterations (a development aid).
 
 use super::input::{eval_d, eval_h_floor, survey};
+use super::internal::{self, Internal};
 use super::{MeshOutput2, Options2, QualityStats, Report};
 use crate::geometry::project::{project2, ProjectError, Projection};
 use crate::geometry::Implicit2;
@@ -55,6 +56,13 @@ const CHUNK: usize = 4096;
 const INTERIOR: u8 = 0;
 const BOUNDARY: u8 = 1;
 const FIXED: u8 = 2;
+const INTERNAL: u8 = 3;
+
+/// Edge kinds in the snapshot.
+const EDGE_INTERIOR: u8 = 0;
+const EDGE_BOUNDARY: u8 = 1;
+/// Between two subdomains (an internal boundary).
+const EDGE_INTERFACE: u8 = 2;
 
 struct Ctx<'a> {
     domain: &'a dyn Implicit2,
@@ -67,6 +75,8 @@ struct Ctx<'a> {
     joined: usize,
     /// The run starts from a previous mesh (moving meshes, remeshing).
     from_previous: bool,
+    /// Internal boundaries, if any.
+    internal: Option<Internal<'a>>,
 }
 
 impl Ctx<'_> {
@@ -85,6 +95,20 @@ impl Ctx<'_> {
                 Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, 0.0] })
             }
             Err(_) => Ok(None),
+        }
+    }
+    /// True when an interior node's step from `a` to `b` would cross (or land on) an internal
+    /// boundary: it is held back, so that no triangle straddles d_I = 0.
+    fn crosses_internal(&self, a: DVec2, b: DVec2) -> Result<bool, Error> {
+        let Some(di) = &self.internal else { return Ok(false) };
+        let (da, db) = (di.value(a)?, di.value(b)?);
+        Ok((da < 0.0) != (db < 0.0) || di.approx_dist(b)?.abs() < self.geps)
+    }
+    /// Projects onto d_I = 0 (`Ok(None)` without internal boundaries or without convergence).
+    fn project_internal(&self, p: DVec2) -> Result<Option<DVec2>, Error> {
+        match &self.internal {
+            Some(di) => di.project(p),
+            None => Ok(None),
         }
     }
     /// Approximate distance: d itself for distances, d / |grad d| otherwise.
@@ -146,6 +170,7 @@ pub(crate) fn run_moving(
         left: 0,
         joined: 0,
         from_previous: start.is_some(),
+        internal: opts.internal.as_deref().map(|d| Internal::new(d, opts.h0)),
     };
     let mut mesh = match start {
         None => initial_mesh(&mut ctx, survey.estimated_triangles)?,
@@ -184,6 +209,13 @@ pub(crate) fn run_moving(
             let tag = if mesh.is_boundary_vertex(v) { VertexTag::Boundary } else { VertexTag::Interior };
             mesh.set_tag(v, tag);
         }
+    }
+    if let Some(di) = &ctx.internal {
+        internal::tag_interface(&mut mesh);
+        ctx.report.internal_nodes_off = internal::nodes_off(&mesh, di, ctx.geps)?;
+    }
+    if ctx.internal.is_some() || start.is_some() {
+        internal::label_subdomains(&mut mesh);
     }
     if let Err(e) = mesh.validate(Level::Geometry) {
         return Err(Error::Internal(format!("the finished mesh is invalid: {e}")));
@@ -260,6 +292,9 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
             )));
         }
     }
+    if let Some(di) = &ctx.internal {
+        internal::align(&mut m, di, ctx.geps)?;
+    }
     carve(ctx, &m, 0.0)
 }
 
@@ -287,7 +322,7 @@ fn edge_certainly_outside(ctx: &Ctx, m: &TriMesh<DVec2>, h: HalfEdgeId) -> Resul
 /// Keeps the triangles whose centroid is inside (d < -geps), repairs pinched vertices, and
 /// tags the boundary.
 fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<DVec2>, Error> {
-    let (points, tris, _, keys) = m.to_arrays();
+    let (points, tris, labels, keys) = m.to_arrays();
     // As the seed keeps only grid points with d < geps, keep the triangles whose three
     // vertices are inside; the pressure then pushes the outer row onto the boundary. Boundary
     // vertices of a previous mesh count as inside up to `boundary_slack` relative sizes
@@ -303,12 +338,14 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
     }
     let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
     let mut keep: Vec<[usize; 3]> = Vec::with_capacity(tris.len());
-    for t in &tris {
+    let mut keep_label: std::collections::HashMap<[usize; 3], u32> = std::collections::HashMap::new();
+    for (t, &label) in tris.iter().zip(&labels) {
         // Around fixed points (often corners on d = 0) the centroid decides, so they stay.
         let touches_fixed = t.iter().any(|&i| fixed[i]);
         let c = (points[t[0]] + points[t[1]] + points[t[2]]) / 3.0;
         if t.iter().all(|&i| inside[i]) || (touches_fixed && ctx.d(c)? < -ctx.geps) {
             keep.push(*t);
+            keep_label.insert(*t, label);
         }
     }
     // Pinched vertices (two fans) would break the manifold structure: drop the triangles of
@@ -341,6 +378,11 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
     let tri: Vec<[usize; 3]> = keep.iter().map(|t| [map[t[0]], map[t[1]], map[t[2]]]).collect();
     let (mut out, ids) =
         TriMesh::from_arrays(&pts, &tri).map_err(|e| Error::Internal(format!("carving the initial mesh: {e}")))?;
+    // from_arrays creates the faces in triangle order: labels (subdomains) carry over.
+    let faces: Vec<crate::topology::FaceId> = out.face_ids().collect();
+    for (f, t) in faces.into_iter().zip(&keep) {
+        out.set_label(f, keep_label[t]);
+    }
     for (i, &v) in ids.iter().enumerate() {
         let tag = if is_fixed[i] {
             VertexTag::Fixed
@@ -351,6 +393,7 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
         };
         out.set_tag(v, tag);
     }
+    internal::tag_interface(&mut out);
     restore_fixed(ctx, &mut out)?;
     Ok(out)
 }
@@ -514,8 +557,8 @@ struct Snapshot {
     adj: Vec<u32>,
     tris: Vec<[u32; 3]>,
     tri_faces: Vec<crate::topology::FaceId>,
-    /// Every edge: endpoints, one half-edge, and whether it lies on the boundary.
-    edges: Vec<(u32, u32, HalfEdgeId, bool)>,
+    /// Every edge: endpoints, one half-edge, and its kind (EDGE_*).
+    edges: Vec<(u32, u32, HalfEdgeId, u8)>,
     /// Flippable edges (interior, same label both sides): a, b, and the opposite c, d.
     quads: Vec<[u32; 4]>,
     quad_edges: Vec<HalfEdgeId>,
@@ -536,7 +579,8 @@ impl Snapshot {
             ids.push(v);
             kind.push(match vx.tag {
                 VertexTag::Fixed => FIXED,
-                VertexTag::Boundary | VertexTag::InternalBoundary { .. } => BOUNDARY,
+                VertexTag::Boundary => BOUNDARY,
+                VertexTag::InternalBoundary { .. } => INTERNAL,
                 VertexTag::Interior => INTERIOR,
             });
         }
@@ -552,15 +596,17 @@ impl Snapshot {
             deg[b as usize] += 1;
             match (m.face_of(h), m.face_of(t)) {
                 (Some(f1), Some(f2)) => {
-                    edges.push((a, b, h, false));
                     if m.face(f1).label == m.face(f2).label {
+                        edges.push((a, b, h, EDGE_INTERIOR));
                         let c = index[m.origin(m.prev(h))];
                         let d = index[m.origin(m.prev(t))];
                         quads.push([a, b, c, d]);
                         quad_edges.push(h);
+                    } else {
+                        edges.push((a, b, h, EDGE_INTERFACE));
                     }
                 }
-                _ => edges.push((a, b, h, true)),
+                _ => edges.push((a, b, h, EDGE_BOUNDARY)),
             }
         }
         let mut adj_start = Vec::with_capacity(n + 1);
@@ -586,8 +632,8 @@ impl Snapshot {
         }
         let mut loop_nbrs = vec![(u32::MAX, u32::MAX); ids.len()];
         let mut apexes = Vec::new();
-        for &(_, _, h, boundary) in &edges {
-            if !boundary {
+        for &(_, _, h, kind) in &edges {
+            if kind != EDGE_BOUNDARY {
                 continue;
             }
             // g: the boundary half-edge of this edge, v -> c along the loop.
@@ -774,14 +820,31 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                 }
                 INTERIOR => match ctx.approx_dist(newp[i]) {
                     Ok(d) if d > -ctx.geps => Some(Ok((i, p[i]))),
-                    Ok(_) => None,
+                    Ok(_) => match ctx.crosses_internal(p[i], newp[i]) {
+                        // Held back, marked to join the internal boundary (NaN marker).
+                        Ok(true) => Some(Ok((i, DVec2::NAN))),
+                        Ok(false) => None,
+                        Err(e) => Some(Err(e)),
+                    },
+                    Err(e) => Some(Err(e)),
+                },
+                // Internal-boundary nodes back onto d_I = 0 every step: they slide along it.
+                INTERNAL => match ctx.project_internal(newp[i]) {
+                    Ok(Some(q)) => Some(Ok((i, q))),
+                    Ok(None) => Some(Ok((i, p[i]))),
                     Err(e) => Some(Err(e)),
                 },
                 _ => None,
             })
             .collect::<Result<Vec<_>, Error>>()?;
+        let mut joining_internal = Vec::new();
         for (i, q) in fixes {
-            newp[i] = q;
+            if q.is_nan() {
+                joining_internal.push(i);
+                newp[i] = p[i];
+            } else {
+                newp[i] = q;
+            }
         }
         // Step control: no triangle may invert; vertices of offending triangles step back.
         guard_inversions(&snap, &p, &mut newp);
@@ -790,7 +853,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         let boundary_move = (0..p.len())
             .into_par_iter()
             .with_min_len(CHUNK)
-            .filter(|&i| snap.kind[i] == BOUNDARY)
+            .filter(|&i| snap.kind[i] == BOUNDARY || snap.kind[i] == INTERNAL)
             .map(|i| newp[i].distance(p[i]) / (h0 * hv[i]))
             .reduce(|| 0.0, f64::max);
         let max_move = interior_move.max(boundary_move);
@@ -813,6 +876,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         if !leaving.is_empty() || !joining.is_empty() {
             write_back(m, &snap, &p);
             topo_changed |= change_membership(ctx, m, &snap, &leaving, &joining)?;
+        }
+        if !joining_internal.is_empty() {
+            write_back(m, &snap, &p);
+            topo_changed |= join_internal(ctx, m, &snap, &joining_internal)?;
         }
         // Density control and repair of bad triangles.
         if iter % DENSITY_EVERY == 0 {
@@ -965,6 +1032,42 @@ fn change_membership(
     Ok(changed)
 }
 
+/// Interior nodes that the forces push across an internal boundary join it (seed 3.4: "if a
+/// new node tries to cross the boundary it is added to the list of boundary nodes"): the
+/// worst triangle with the node as apex over an internal-boundary edge changes sides, so the
+/// curve runs through the node, which is then projected onto d_I = 0.
+fn join_internal(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, snap: &Snapshot, joining: &[usize]) -> Result<bool, Error> {
+    let mut changed = false;
+    for &i in joining {
+        let v = snap.ids[i];
+        if !m.contains_vertex(v) || m.tag(v) != VertexTag::Interior || m.is_boundary_vertex(v) {
+            continue;
+        }
+        let mut best: Option<(f64, crate::topology::FaceId, u32)> = None;
+        for x in m.outgoing(v) {
+            let Some(f) = m.face_of(x) else { continue };
+            let opp = m.twin(m.next(x));
+            if let Some(g) = m.face_of(opp) {
+                if m.face(g).label != m.face(f).label {
+                    let q = m.face_quality(f);
+                    if best.is_none_or(|(bq, _, _)| q < bq) {
+                        best = Some((q, f, m.face(g).label));
+                    }
+                }
+            }
+        }
+        let Some((_, f, label)) = best else { continue };
+        m.set_label(f, label);
+        m.set_tag(v, VertexTag::InternalBoundary { curve: 0 });
+        ctx.joined += 1;
+        if let Some(q) = ctx.project_internal(m.pos(v))? {
+            let _ = m.relocate(v, q);
+        }
+        changed = true;
+    }
+    Ok(changed)
+}
+
 /// Boundary nodes that the guarded projection could not bring onto d = 0 (a notch the forces
 /// never closed) are projected one by one, or else merged into a boundary neighbour.
 fn settle_boundary(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
@@ -1027,10 +1130,13 @@ fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &TriMesh<DVe
     let old = p.to_vec();
     let mut newp = p.to_vec();
     for i in 0..p.len() {
-        if snap.kind[i] == BOUNDARY {
-            if let Some(q) = ctx.project(p[i])? {
-                newp[i] = q;
-            }
+        let q = match snap.kind[i] {
+            BOUNDARY => ctx.project(p[i])?,
+            INTERNAL => ctx.project_internal(p[i])?,
+            _ => None,
+        };
+        if let Some(q) = q {
+            newp[i] = q;
         }
     }
     guard_inversions(snap, &old, &mut newp);
@@ -1102,7 +1208,7 @@ fn density_candidates(
         .edges
         .par_iter()
         .with_min_len(CHUNK)
-        .filter_map(|&(a, b, h, boundary)| {
+        .filter_map(|&(a, b, h, kind)| {
             let (pa, pb) = (p[a as usize], p[b as usize]);
             let hm = match ctx.h((pa + pb) * 0.5) {
                 Ok(v) => v,
@@ -1113,8 +1219,8 @@ fn density_candidates(
                 Some(Ok((r, h, 1)))
             } else if r < collapse_below {
                 Some(Ok((r, h, -1)))
-            } else if boundary {
-                // Boundary spacing follows the mesh's own current scale (the interior sets it):
+            } else if kind != EDGE_INTERIOR {
+                // Boundary (and internal-boundary) spacing follows the mesh's own current scale (the interior sets it):
                 // the carved start may have too many boundary nodes.
                 let rb = pa.distance(pb) / (unit * hm);
                 if rb > BOUNDARY_SPLIT_ABOVE {
@@ -1156,10 +1262,13 @@ fn density_control(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, cands: Candidates) -> 
             continue;
         }
         let (a, b) = (m.pos(m.origin(h)), m.pos(m.dest(h)));
-        let boundary = m.is_boundary_edge(h);
         let mut mid = (a + b) * 0.5;
-        if boundary {
+        if m.is_boundary_edge(h) {
             if let Some(q) = ctx.project(mid)? {
+                mid = q;
+            }
+        } else if m.is_constrained_edge(h) {
+            if let Some(q) = ctx.project_internal(mid)? {
                 mid = q;
             }
         }
@@ -1234,6 +1343,15 @@ fn try_collapse(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, h: HalfEdgeId) -> Result<
         }
         (VertexTag::Boundary, VertexTag::Fixed) if m.is_boundary_edge(h) => tries.push((h, m.pos(b))),
         (VertexTag::Fixed, VertexTag::Boundary) if m.is_boundary_edge(h) => tries.push((t, m.pos(a))),
+        // Along an internal boundary, as along the boundary.
+        (VertexTag::InternalBoundary { .. }, VertexTag::InternalBoundary { .. }) if m.is_constrained_edge(h) => {
+            if let Some(q) = ctx.project_internal((m.pos(a) + m.pos(b)) * 0.5)? {
+                tries.push((h, q));
+            }
+            tries.push((h, m.pos(b)));
+        }
+        (VertexTag::InternalBoundary { .. }, VertexTag::Fixed) if m.is_constrained_edge(h) => tries.push((h, m.pos(b))),
+        (VertexTag::Fixed, VertexTag::InternalBoundary { .. }) if m.is_constrained_edge(h) => tries.push((t, m.pos(a))),
         _ => {}
     }
     for (e, pos) in tries {

@@ -4,6 +4,7 @@ pub mod background;
 mod classic2d;
 pub mod image;
 mod input;
+mod internal;
 mod local2d;
 mod options;
 mod report;
@@ -35,6 +36,9 @@ pub struct MeshOutput2 {
 pub fn mesh_2d(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, crate::Error> {
     match opts.strategy {
         Strategy::Local => local2d::run(domain, opts),
+        Strategy::GlobalDelaunay if opts.internal.is_some() => Err(crate::Error::Invalid(
+            "internal boundaries need the local strategy (the classic global-Delaunay baseline has none)".into(),
+        )),
         Strategy::GlobalDelaunay => classic2d::run(domain, opts),
     }
 }

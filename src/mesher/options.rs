@@ -1,6 +1,7 @@
 //! Options of the 2-D mesher, with their defaults.
 
 use crate::geometry::project::Projection;
+use crate::geometry::Implicit2;
 use glam::DVec2;
 use std::sync::Arc;
 
@@ -50,6 +51,9 @@ pub struct Options2 {
     pub dptol: f64,
     /// Progress callback.
     pub progress: Option<ProgressFn>,
+    /// Internal boundaries: the zero set of this function (any number of non-crossing curves,
+    /// seed section 3.4). Triangles never cross it and are labelled by subdomain.
+    pub internal: Option<Arc<dyn Implicit2>>,
 }
 
 impl std::fmt::Debug for Options2 {
@@ -63,6 +67,7 @@ impl std::fmt::Debug for Options2 {
             .field("seed", &self.seed)
             .field("projection", &self.projection)
             .field("strategy", &self.strategy)
+            .field("internal", &self.internal.as_ref().map(|_| "fn"))
             .finish()
     }
 }
@@ -95,6 +100,7 @@ impl Options2 {
             deltat: Self::DEFAULT_DELTAT,
             dptol: Self::DEFAULT_DPTOL,
             progress: None,
+            internal: None,
         }
     }
     /// Sets the relative size function.
@@ -130,6 +136,11 @@ impl Options2 {
     /// Sets the element limit.
     pub fn with_max_elements(mut self, n: u64) -> Self {
         self.max_elements = n;
+        self
+    }
+    /// Sets the internal boundaries: the zero set of `d_i` (seed section 3.4).
+    pub fn with_internal(mut self, d_i: impl Implicit2 + 'static) -> Self {
+        self.internal = Some(Arc::new(d_i));
         self
     }
     /// Sets the progress callback.
