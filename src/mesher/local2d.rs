@@ -7,6 +7,7 @@
 
 use super::input::{eval_d, eval_h_floor, survey};
 use super::internal::{self, Internal};
+use super::metric::{self, eval_metric, metric_triangle_q, Metric2, MetricFn2};
 use super::{MeshOutput2, Options2, QualityStats, Report};
 use crate::geometry::project::{project2, ProjectError, Projection};
 use crate::geometry::Implicit2;
@@ -49,6 +50,12 @@ const CARRY_BOUNDARY: f64 = 0.5;
 /// target lengths (split above, collapse below), for at most ADAPT_ROUNDS rounds.
 const ADAPT_BAND: (f64, f64) = (1.4, 0.7);
 const ADAPT_ROUNDS: usize = 8;
+/// With a metric, boundary edges whose midpoint is farther from the boundary than this many
+/// metric lengths are split (a chord must not cut into the layer of elements below it).
+const METRIC_SAGITTA: f64 = 0.5;
+/// With a metric, an edge flips only when the worse of its two triangles gains this share of
+/// metric quality.
+const METRIC_FLIP_GAIN: f64 = 0.02;
 /// Chunk size of the deterministic parallel loops.
 const CHUNK: usize = 4096;
 
@@ -77,12 +84,91 @@ struct Ctx<'a> {
     from_previous: bool,
     /// Internal boundaries, if any.
     internal: Option<Internal<'a>>,
+    /// The metric of the anisotropic mode, if any (replaces h).
+    metric: Option<&'a MetricFn2>,
 }
 
 impl Ctx<'_> {
+    /// The local size relative to h0 (with a metric: its smallest size, which sets the
+    /// tolerances of movement and projection).
     fn h(&self, p: DVec2) -> Result<f64, Error> {
+        if self.metric.is_some() {
+            return Ok(self.metric_at(p)?.smallest_size() / self.opts.h0);
+        }
         // Relative size normalised so that the smallest size inside is 1 (edge length h0).
         Ok(eval_h_floor(self.opts, p, self.h_floor)? / self.h_floor)
+    }
+    /// The length of the edge a-b in target lengths: |b - a| / (h0 h(midpoint)), or with a
+    /// metric its length in M (seed eq. 3.18) integrated along the edge.
+    fn ratio(&self, a: DVec2, b: DVec2) -> Result<f64, Error> {
+        match self.metric {
+            Some(_) => Ok(metric::simpson_length(
+                &self.metric_at(a)?,
+                &self.metric_at((a + b) * 0.5)?,
+                &self.metric_at(b)?,
+                b - a,
+            )),
+            None => Ok(a.distance(b) / (self.opts.h0 * self.h((a + b) * 0.5)?)),
+        }
+    }
+    /// The metric length of the offset from the midpoint of a-b to the boundary.
+    fn metric_sagitta(&self, a: DVec2, b: DVec2) -> Result<f64, Error> {
+        let mid = (a + b) * 0.5;
+        match self.project(mid)? {
+            Some(q) => Ok(self.metric_at(q)?.length(q - mid)),
+            None => Ok(0.0),
+        }
+    }
+    /// The metric at `p`, taken at the nearest boundary point when `p` is outside: like the
+    /// seed's size functions, a metric need only make sense inside the domain (figure 3-6's
+    /// radial size is negative a little outside the circle).
+    fn metric_at(&self, p: DVec2) -> Result<Metric2, Error> {
+        let f = self.metric.expect("metric mode");
+        if self.approx_dist(p)? > 0.0 {
+            if let Some(q) = self.project(p)? {
+                return eval_metric(f, q);
+            }
+        }
+        eval_metric(f, p)
+    }
+    /// Triangle quality: q, or with a metric q measured in M at the centroid.
+    fn tri_q(&self, t: [DVec2; 3]) -> f64 {
+        match self.metric {
+            Some(_) => match self.metric_at((t[0] + t[1] + t[2]) / 3.0) {
+                Ok(m) => metric_triangle_q(&m, t),
+                Err(_) => crate::quality::triangle_q(t),
+            },
+            None => crate::quality::triangle_q(t),
+        }
+    }
+    /// Lawson flips from `stack`: exact in-circle, or in the metric space of each quad.
+    fn legalize(&self, m: &mut TriMesh<DVec2>, stack: Vec<HalfEdgeId>) -> usize {
+        match self.metric {
+            None => m.legalize(stack),
+            Some(_) => {
+                let cap = 10 * m.num_edges() + 1000;
+                m.legalize_with(stack, cap, |a, b, c, d| self.metric_flip(a, b, c, d))
+            }
+        }
+    }
+    /// With a metric: whether the edge a-b (c on its left, d on its right) should flip, by
+    /// the metric quality of the two triangles with M at the quad's centroid (seed 3.5: "a
+    /// length based quality test with M averaged over the element nodes"), with hysteresis:
+    /// in a layer of metric rectangles both diagonals are equally Delaunay, and flipping back
+    /// and forth would shake the truss.
+    fn metric_flip(&self, a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> bool {
+        let Ok(m) = self.metric_at((a + b + c + d) * 0.25) else { return false };
+        let before = metric_triangle_q(&m, [a, b, c]).min(metric_triangle_q(&m, [b, a, d]));
+        let after = metric_triangle_q(&m, [c, a, d]).min(metric_triangle_q(&m, [d, b, c]));
+        after > before * (1.0 + METRIC_FLIP_GAIN)
+    }
+    /// Every edge by [`Ctx::legalize`].
+    fn make_delaunay(&self, m: &mut TriMesh<DVec2>) -> usize {
+        let stack: Vec<HalfEdgeId> = m.edge_ids().collect();
+        match self.metric {
+            None => m.make_delaunay(),
+            Some(_) => self.legalize(m, stack),
+        }
     }
     fn d(&self, p: DVec2) -> Result<f64, Error> {
         eval_d(self.domain, p)
@@ -171,6 +257,7 @@ pub(crate) fn run_moving(
         joined: 0,
         from_previous: start.is_some(),
         internal: opts.internal.as_deref().map(|d| Internal::new(d, opts.h0)),
+        metric: opts.metric.as_ref(),
     };
     let mut mesh = match start {
         None => initial_mesh(&mut ctx, survey.estimated_triangles)?,
@@ -193,7 +280,7 @@ pub(crate) fn run_moving(
         for _ in 0..ADAPT_ROUNDS {
             let snap = Snapshot::build(&mesh);
             let p: Vec<DVec2> = snap.ids.iter().map(|&v| mesh.pos(v)).collect();
-            let cands = density_candidates(&ctx, &snap, &p, opts.h0, ADAPT_BAND)?;
+            let cands = density_candidates(&ctx, &snap, &p, opts.h0, None, ADAPT_BAND)?;
             if cands.is_empty() || !density_control(&mut ctx, &mut mesh, cands)? {
                 break;
             }
@@ -269,8 +356,7 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
         for h in m.edge_ids() {
             let (a, b) = (m.origin(h), m.dest(h));
             let (pa, pb) = (m.pos(a), m.pos(b));
-            if pa.distance(pb) > opts.h0 * ctx.h((pa + pb) * 0.5)? * INIT_SPLIT && !edge_certainly_outside(ctx, &m, h)?
-            {
+            if ctx.ratio(pa, pb)? > INIT_SPLIT && !edge_certainly_outside(ctx, &m, h)? {
                 todo.push((a, b));
             }
         }
@@ -285,7 +371,7 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
                 }
             }
         }
-        m.make_delaunay();
+        ctx.make_delaunay(&mut m);
         if m.num_vertices() > cap {
             return Err(Error::Internal(format!(
                 "initial refinement passed {cap} vertices (estimate {estimate:.0} triangles)"
@@ -652,19 +738,38 @@ impl Snapshot {
     }
 
     /// Edges that fail the exact in-circle test at positions `p`, found in parallel.
-    fn non_delaunay(&self, p: &[DVec2]) -> Vec<HalfEdgeId> {
+    /// With a metric, `ctx` decides by [`Ctx::metric_flip`] instead.
+    fn non_delaunay(&self, p: &[DVec2], ctx: Option<&Ctx>) -> Vec<HalfEdgeId> {
         self.quads
             .par_iter()
             .zip(self.quad_edges.par_iter())
             .with_min_len(CHUNK)
             .filter(|(q, _)| {
                 let [a, b, c, d] = **q;
-                crate::predicates::incircle(p[a as usize], p[b as usize], p[c as usize], p[d as usize])
-                    == Sign::Positive
+                let (pa, pb, pc, pd) = (p[a as usize], p[b as usize], p[c as usize], p[d as usize]);
+                match ctx {
+                    Some(ctx) => ctx.metric_flip(pa, pb, pc, pd),
+                    None => crate::predicates::incircle(pa, pb, pc, pd) == Sign::Positive,
+                }
             })
             .map(|(_, h)| *h)
             .collect()
     }
+}
+
+/// The edge (index into `snap.edges`) of each adjacency slot, in the order the snapshot
+/// filled them.
+fn adjacency_edges(snap: &Snapshot) -> Vec<u32> {
+    let n = snap.ids.len();
+    let mut cursor: Vec<u32> = snap.adj_start[..n].to_vec();
+    let mut out = vec![0u32; snap.adj.len()];
+    for (e, &(a, b, _, _)) in snap.edges.iter().enumerate() {
+        out[cursor[a as usize] as usize] = e as u32;
+        cursor[a as usize] += 1;
+        out[cursor[b as usize] as usize] = e as u32;
+        cursor[b as usize] += 1;
+    }
+    out
 }
 
 /// Deterministic parallel sum: fixed chunks, partial sums added in order.
@@ -691,8 +796,14 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     let mut p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
     // Positions at the last connectivity check (the seed's pold).
     let mut pold: Vec<DVec2> = p.clone();
-    let uniform = opts.size.is_none();
+    let metric = ctx.metric;
+    let uniform = opts.size.is_none() && metric.is_none();
     let mut hv: Vec<f64> = vec![1.0; p.len()];
+    // With a metric: M at each vertex, and the mean metric edge length (sqrt of the mean
+    // square) for the boundary spacing rule.
+    let mut mv: Vec<Metric2> = Vec::new();
+    let mut munit = 1.0;
+    let mut slots: Vec<u32> = Vec::new();
     let mut last_q = 0.0;
     let mut stall = 0;
     let mut rebuilds = 0usize;
@@ -708,7 +819,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
         eprintln!(
             "start: q mean {:.5}, {} vertices ({} fixed), interior valences {:?}",
-            mean_quality(&snap, &p),
+            mean_quality(ctx, &snap, &p),
             p.len(),
             snap.kind.iter().filter(|&&k| k == FIXED).count(),
             val
@@ -719,11 +830,44 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         if let Some(cb) = &opts.progress {
             cb(iter, opts.max_iter);
         }
-        if !uniform {
+        if metric.is_some() {
+            mv = p.par_iter().map(|&x| ctx.metric_at(x)).collect::<Result<Vec<Metric2>, Error>>()?;
+            hv = mv.par_iter().map(|m| m.smallest_size() / h0).collect();
+        } else if !uniform {
             hv = p.par_iter().map(|&x| ctx.h(x)).collect::<Result<Vec<f64>, Error>>()?;
         }
-        // Seed eq. 2.6: L0 = h_bar Fscale sqrt(sum L^2 / sum h_bar^2).
+        // With a metric: every edge's metric length, integrated along it (Simpson's rule
+        // with M at the endpoints and the midpoint), indexed by adjacency slot.
+        let el: Vec<f64> = if metric.is_some() {
+            if slots.len() != snap.adj.len() {
+                slots = adjacency_edges(&snap);
+            }
+            let lens = snap
+                .edges
+                .par_iter()
+                .with_min_len(CHUNK)
+                .map(|&(a, b, _, _)| {
+                    let (a, b) = (a as usize, b as usize);
+                    let mm = ctx.metric_at((p[a] + p[b]) * 0.5)?;
+                    Ok(metric::simpson_length(&mv[a], &mm, &mv[b], p[b] - p[a]))
+                })
+                .collect::<Result<Vec<f64>, Error>>()?;
+            slots.iter().map(|&e| lens[e as usize]).collect()
+        } else {
+            Vec::new()
+        };
+        // Seed eq. 2.6: L0 = h_bar Fscale sqrt(sum L^2 / sum h_bar^2); with a metric every
+        // desired length is one, so L0 = Fscale sqrt(mean of the squared metric lengths).
         let (sl, sh) = det_sum(p.len(), |i| {
+            if metric.is_some() {
+                let mut s = (0.0, 0.0);
+                for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                    let l = el[k as usize];
+                    s.0 += l * l;
+                    s.1 += 1.0;
+                }
+                return s;
+            }
             let mut s = (0.0, 0.0);
             for k in snap.adj_start[i]..snap.adj_start[i + 1] {
                 let j = snap.adj[k as usize] as usize;
@@ -734,6 +878,33 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             s
         });
         let scale = opts.fscale * (sl / sh).sqrt();
+        // With a metric: the boundary pushes back on interior nodes through a bar to their
+        // mirror image across d = 0, of rest length twice an equilateral height (sqrt 3 L0):
+        // a boundary chord alone barely resists a node approaching it along the normal, and
+        // in a boundary layer the chord's sagitta is a large part of the first row's height.
+        let wall: Vec<DVec2> = if metric.is_some() {
+            (0..p.len())
+                .into_par_iter()
+                .with_min_len(CHUNK)
+                .map(|i| {
+                    if snap.kind[i] != INTERIOR {
+                        return Ok(DVec2::ZERO);
+                    }
+                    let d = ctx.approx_dist(p[i])?;
+                    let g = ctx.domain.gradient(p[i]);
+                    let n = g.normalize_or_zero();
+                    if d >= 0.0 || n == DVec2::ZERO {
+                        return Ok(DVec2::ZERO);
+                    }
+                    let v = n * (2.0 * d); // from the mirror image to p (inward)
+                    let l = mv[i].length(v);
+                    let rest = 3f64.sqrt() * scale;
+                    Ok(if l > 0.0 && l < rest { v * ((rest - l) / l) } else { DVec2::ZERO })
+                })
+                .collect::<Result<Vec<DVec2>, Error>>()?
+        } else {
+            Vec::new()
+        };
         // Forces gathered per vertex (deterministic in parallel), forward Euler step.
         let dt = opts.deltat;
         let mut newp: Vec<DVec2> = (0..p.len())
@@ -744,6 +915,17 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                     return p[i];
                 }
                 let mut f = DVec2::ZERO;
+                if metric.is_some() {
+                    for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                        let j = snap.adj[k as usize] as usize;
+                        let d = p[i] - p[j];
+                        let l = el[k as usize];
+                        if l > 0.0 && scale > l {
+                            f += d * ((scale - l) / l);
+                        }
+                    }
+                    return p[i] + dt * (f + wall[i]);
+                }
                 for k in snap.adj_start[i]..snap.adj_start[i + 1] {
                     let j = snap.adj[k as usize] as usize;
                     let d = p[i] - p[j];
@@ -757,11 +939,18 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             })
             .collect();
         // Interior movement before projection: the seed's stop criterion.
+        let step = |i: usize, q: &[DVec2]| {
+            if metric.is_some() {
+                mv[i].length(q[i] - p[i])
+            } else {
+                q[i].distance(p[i]) / (h0 * hv[i])
+            }
+        };
         let interior_move = (0..p.len())
             .into_par_iter()
             .with_min_len(CHUNK)
             .filter(|&i| snap.kind[i] == INTERIOR)
-            .map(|i| newp[i].distance(p[i]) / (h0 * hv[i]))
+            .map(|i| step(i, &newp))
             .reduce(|| 0.0, f64::max);
         // Boundary membership follows the forces, as the seed's retriangulation lets it: a
         // boundary node whose raw step ends inside the chord of its boundary neighbours leaves
@@ -779,11 +968,15 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             .apexes
             .iter()
             .filter(|&&(v, a, b)| {
+                // Not with a metric: the mirror bar keeps nodes off the boundary there, and
+                // nodes joining a chord deep inside a thin layer only get collapsed again.
+                if metric.is_some() {
+                    return false;
+                }
                 let (pa, pb, pv) = (p[a as usize], p[b as usize], newp[v as usize]);
                 // Crossing the boundary edge; when starting from a previous mesh, also squashed
                 // flat onto it (the carried boundary rows leave such slivers behind).
-                orient2d(pa, pb, pv) != Sign::Positive
-                    || (ctx.from_previous && crate::quality::triangle_q([pa, pb, pv]) < EAR_Q)
+                orient2d(pa, pb, pv) != Sign::Positive || (ctx.from_previous && ctx.tri_q([pa, pb, pv]) < EAR_Q)
             })
             .map(|&(v, _, _)| v as usize)
             .collect();
@@ -854,7 +1047,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             .into_par_iter()
             .with_min_len(CHUNK)
             .filter(|&i| snap.kind[i] == BOUNDARY || snap.kind[i] == INTERNAL)
-            .map(|i| newp[i].distance(p[i]) / (h0 * hv[i]))
+            .map(|i| step(i, &newp))
             .reduce(|| 0.0, f64::max);
         let max_move = interior_move.max(boundary_move);
         p = newp;
@@ -864,10 +1057,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         let far = (0..p.len()).into_par_iter().with_min_len(CHUNK).any(|i| p[i].distance(pold[i]) > TTOL * h0 * hv[i]);
         if far {
             pold.copy_from_slice(&p);
-            let bad = snap.non_delaunay(&p);
+            let bad = snap.non_delaunay(&p, metric.map(|_| &*ctx));
             if !bad.is_empty() {
                 write_back(m, &snap, &p);
-                let flips = m.legalize(bad);
+                let flips = ctx.legalize(m, bad);
                 ctx.report.flips += flips;
                 topo_changed |= flips > 0;
             }
@@ -883,20 +1076,26 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
         // Density control and repair of bad triangles.
         if iter % DENSITY_EVERY == 0 {
-            let cands = density_candidates(ctx, &snap, &p, (sl / sh).sqrt(), (SPLIT_ABOVE, COLLAPSE_BELOW))?;
+            let mu = metric.map(|_| (sl / sh).sqrt());
+            let cands = density_candidates(ctx, &snap, &p, (sl / sh).sqrt(), mu, (SPLIT_ABOVE, COLLAPSE_BELOW))?;
             if !cands.is_empty() {
                 write_back(m, &snap, &p);
                 topo_changed |= density_control(ctx, m, cands)?;
             }
             unit = (sl / sh).sqrt();
+            munit = unit;
         }
         if topo_changed {
             rebuilds += 1;
             snap = Snapshot::build(m);
+            slots.clear();
             p = snap.ids.iter().map(|&v| m.pos(v)).collect();
             pold = p.clone();
             hv = vec![1.0; p.len()];
-            if !uniform {
+            if metric.is_some() {
+                mv = p.par_iter().map(|&x| ctx.metric_at(x)).collect::<Result<Vec<Metric2>, Error>>()?;
+                hv = mv.par_iter().map(|m| m.smallest_size() / h0).collect();
+            } else if !uniform {
                 hv = p.par_iter().map(|&x| ctx.h(x)).collect::<Result<Vec<f64>, Error>>()?;
             }
         }
@@ -906,7 +1105,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             break;
         }
         if iter % DENSITY_EVERY == 0 {
-            let q = mean_quality(&snap, &p);
+            let q = mean_quality(ctx, &snap, &p);
             if std::env::var_os("TRUSSMESH_TRACE").is_some() {
                 eprintln!(
                     "iter {iter}: q mean {q:.5}, max move {max_move:.2e}, {} vertices, flips {} splits {} collapses {} left {} joined {}",
@@ -940,9 +1139,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     // Final cleanup: repair bad triangles, restore Delaunay.
     let snap = Snapshot::build(m);
     let p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
-    let cands = density_candidates(ctx, &snap, &p, unit, (SPLIT_ABOVE, COLLAPSE_BELOW))?;
+    let mu = metric.map(|_| munit);
+    let cands = density_candidates(ctx, &snap, &p, unit, mu, (SPLIT_ABOVE, COLLAPSE_BELOW))?;
     density_control(ctx, m, cands)?;
-    ctx.report.flips += m.make_delaunay();
+    ctx.report.flips += ctx.make_delaunay(m);
     settle_boundary(ctx, m)?;
     ctx.report.iterations = iter;
     ctx.report.converged = converged;
@@ -985,7 +1185,7 @@ fn change_membership(
             continue;
         }
         // Not while the ear would be a sliver: the node has barely crossed the chord.
-        if crate::quality::triangle_q([pa, inner, pc]) < EAR_Q {
+        if ctx.tri_q([pa, inner, pc]) < EAR_Q {
             continue;
         }
         let old = m.pos(b);
@@ -1011,7 +1211,7 @@ fn change_membership(
             if let Some(f) = m.face_of(x) {
                 let opp = m.twin(m.next(x));
                 if m.face_of(opp).is_none() {
-                    let q = m.face_quality(f);
+                    let q = ctx.tri_q(m.face_points(f));
                     if best.is_none_or(|(bq, _)| q < bq) {
                         best = Some((q, opp));
                     }
@@ -1049,7 +1249,7 @@ fn join_internal(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, snap: &Snapshot, joining
             let opp = m.twin(m.next(x));
             if let Some(g) = m.face_of(opp) {
                 if m.face(g).label != m.face(f).label {
-                    let q = m.face_quality(f);
+                    let q = ctx.tri_q(m.face_points(f));
                     if best.is_none_or(|(bq, _, _)| q < bq) {
                         best = Some((q, f, m.face(g).label));
                     }
@@ -1100,7 +1300,7 @@ fn settle_boundary(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                 }
             }
         }
-        ctx.report.flips += m.make_delaunay();
+        ctx.report.flips += ctx.make_delaunay(m);
     }
     // What could not be settled is reported, not hidden.
     ctx.report.boundary_nodes_off = m
@@ -1117,10 +1317,10 @@ fn write_back(m: &mut TriMesh<DVec2>, snap: &Snapshot, p: &[DVec2]) {
     }
 }
 
-fn mean_quality(snap: &Snapshot, p: &[DVec2]) -> f64 {
+fn mean_quality(ctx: &Ctx, snap: &Snapshot, p: &[DVec2]) -> f64 {
     let (s, _) = det_sum(snap.tris.len(), |t| {
         let [a, b, c] = snap.tris[t];
-        (crate::quality::triangle_q([p[a as usize], p[b as usize], p[c as usize]]), 0.0)
+        (ctx.tri_q([p[a as usize], p[b as usize], p[c as usize]]), 0.0)
     });
     s / snap.tris.len().max(1) as f64
 }
@@ -1195,11 +1395,14 @@ impl Candidates {
     }
 }
 
+/// `unit` is the current mean edge length (absolute), or with a metric `metric_unit`, the
+/// mean metric edge length: boundary spacing follows it.
 fn density_candidates(
     ctx: &Ctx,
     snap: &Snapshot,
     p: &[DVec2],
     unit: f64,
+    metric_unit: Option<f64>,
     (split_above, collapse_below): (f64, f64),
 ) -> Result<Candidates, Error> {
     let h0 = ctx.opts.h0;
@@ -1210,22 +1413,38 @@ fn density_candidates(
         .with_min_len(CHUNK)
         .filter_map(|&(a, b, h, kind)| {
             let (pa, pb) = (p[a as usize], p[b as usize]);
-            let hm = match ctx.h((pa + pb) * 0.5) {
-                Ok(v) => v,
-                Err(e) => return Some(Err(e)),
+            let (r, rb) = if let Some(mu) = metric_unit {
+                match ctx.ratio(pa, pb) {
+                    Ok(r) => (r, r / mu),
+                    Err(e) => return Some(Err(e)),
+                }
+            } else {
+                let hm = match ctx.h((pa + pb) * 0.5) {
+                    Ok(v) => v,
+                    Err(e) => return Some(Err(e)),
+                };
+                (pa.distance(pb) / (h0 * hm), pa.distance(pb) / (unit * hm))
             };
-            let r = pa.distance(pb) / (h0 * hm);
             if r > split_above {
                 Some(Ok((r, h, 1)))
             } else if r < collapse_below {
                 Some(Ok((r, h, -1)))
             } else if kind != EDGE_INTERIOR {
-                // Boundary (and internal-boundary) spacing follows the mesh's own current scale (the interior sets it):
-                // the carved start may have too many boundary nodes.
-                let rb = pa.distance(pb) / (unit * hm);
-                if rb > BOUNDARY_SPLIT_ABOVE {
-                    Some(Ok((rb, h, 1)))
-                } else if rb < BOUNDARY_COLLAPSE_BELOW {
+                // Boundary (and internal-boundary) spacing follows the mesh's own current scale
+                // (the interior sets it): the carved start may have too many boundary nodes.
+                // With a metric, a boundary edge must also follow the curve to within a
+                // fraction of the metric's size across it, or the layer next to it is cut.
+                let sag = if metric_unit.is_some() && kind == EDGE_BOUNDARY {
+                    match ctx.metric_sagitta(pa, pb) {
+                        Ok(v) => v,
+                        Err(e) => return Some(Err(e)),
+                    }
+                } else {
+                    0.0
+                };
+                if rb > BOUNDARY_SPLIT_ABOVE || sag > METRIC_SAGITTA {
+                    Some(Ok((rb.max(sag / METRIC_SAGITTA), h, 1)))
+                } else if rb < BOUNDARY_COLLAPSE_BELOW && 4.0 * sag <= METRIC_SAGITTA {
                     Some(Ok((rb, h, -1)))
                 } else {
                     None
@@ -1235,13 +1454,13 @@ fn density_candidates(
             }
         })
         .collect::<Result<_, Error>>()?;
-    let bad = snap
+    let bad: Vec<(f64, crate::topology::FaceId)> = snap
         .tris
         .par_iter()
         .zip(snap.tri_faces.par_iter())
         .with_min_len(CHUNK)
         .filter_map(|(t, f)| {
-            let q = crate::quality::triangle_q([p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]]);
+            let q = ctx.tri_q([p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]]);
             (q < Q_REPAIR).then_some((q, *f))
         })
         .collect();
@@ -1285,7 +1504,7 @@ fn density_control(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, cands: Candidates) -> 
     // Collapses: short edges, and the shortest edge of bad triangles.
     bad.sort_by(|x, y| x.0.total_cmp(&y.0));
     for (_, f) in bad {
-        if !m.contains_face(f) || m.face_quality(f) >= Q_REPAIR {
+        if !m.contains_face(f) || ctx.tri_q(m.face_points(f)) >= Q_REPAIR {
             continue;
         }
         let hs = m.face_half_edges(f);
@@ -1314,7 +1533,7 @@ fn density_control(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, cands: Candidates) -> 
         }
     }
     if changed {
-        ctx.report.flips += m.make_delaunay();
+        ctx.report.flips += ctx.make_delaunay(m);
     }
     Ok(changed)
 }
@@ -1372,5 +1591,5 @@ fn legalize_vertex(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) {
             stack.push(m.next(h));
         }
     }
-    ctx.report.flips += m.legalize(stack);
+    ctx.report.flips += ctx.legalize(m, stack);
 }

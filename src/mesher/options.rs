@@ -1,5 +1,6 @@
 //! Options of the 2-D mesher, with their defaults.
 
+use super::metric::{Metric2, MetricFn2};
 use crate::geometry::project::Projection;
 use crate::geometry::Implicit2;
 use glam::DVec2;
@@ -54,6 +55,10 @@ pub struct Options2 {
     /// Internal boundaries: the zero set of this function (any number of non-crossing curves,
     /// seed section 3.4). Triangles never cross it and are labelled by subdomain.
     pub internal: Option<Arc<dyn Implicit2>>,
+    /// Anisotropic mode: a metric field M(x) replacing h (seed section 3.5); every desired
+    /// edge has length one in M. h0 then only sets tolerances and should be about the
+    /// smallest size.
+    pub metric: Option<MetricFn2>,
 }
 
 impl std::fmt::Debug for Options2 {
@@ -68,6 +73,7 @@ impl std::fmt::Debug for Options2 {
             .field("projection", &self.projection)
             .field("strategy", &self.strategy)
             .field("internal", &self.internal.as_ref().map(|_| "fn"))
+            .field("metric", &self.metric.as_ref().map(|_| "fn"))
             .finish()
     }
 }
@@ -101,6 +107,7 @@ impl Options2 {
             dptol: Self::DEFAULT_DPTOL,
             progress: None,
             internal: None,
+            metric: None,
         }
     }
     /// Sets the relative size function.
@@ -141,6 +148,11 @@ impl Options2 {
     /// Sets the internal boundaries: the zero set of `d_i` (seed section 3.4).
     pub fn with_internal(mut self, d_i: impl Implicit2 + 'static) -> Self {
         self.internal = Some(Arc::new(d_i));
+        self
+    }
+    /// Sets the metric field (anisotropic mode, seed section 3.5).
+    pub fn with_metric(mut self, m: impl Fn(DVec2) -> Metric2 + Send + Sync + 'static) -> Self {
+        self.metric = Some(Arc::new(m));
         self
     }
     /// Sets the progress callback.
