@@ -314,6 +314,9 @@ pub(crate) fn run_moving(
     let mut report = ctx.report;
     report.seconds = t0.elapsed().as_secs_f64();
     report.quality = QualityStats::of(&mesh);
+    if let Some(f) = &opts.metric {
+        report.metric = Some(super::metric::MetricStats::of(&mesh, &|p| f(p)));
+    }
     Ok(MeshOutput2 { mesh, report })
 }
 

@@ -75,6 +75,8 @@ pub struct Report {
     pub internal_nodes_off: usize,
     /// Quality of the result.
     pub quality: QualityStats,
+    /// With a metric: metric edge lengths and metric quality of the result.
+    pub metric: Option<super::metric::MetricStats>,
 }
 
 impl std::fmt::Display for Report {
@@ -97,6 +99,9 @@ impl std::fmt::Display for Report {
                 "\nwarning: {} boundary nodes are off the boundary (more than 1e-3 h0)",
                 self.boundary_nodes_off
             )?;
+        }
+        if let Some(m) = &self.metric {
+            write!(f, "\nmetric: {m}")?;
         }
         if self.internal_nodes_off > 0 {
             write!(
