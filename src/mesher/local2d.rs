@@ -60,6 +60,10 @@ const METRIC_FLIP_GAIN: f64 = 0.02;
 /// (Measured on figure 3-6: wider bands leave the truss too coarse inside and too crowded in
 /// the layer; (1.45, 0.65) gives 96% of edges in [0.707, 1.414].)
 const METRIC_BAND: (f64, f64) = (1.45, 0.65);
+/// Starting from a previous mesh (moving meshes, remeshing), density control splits above and
+/// collapses below these target lengths: areas change, and the wide band of a fresh start
+/// would let a growing region coarsen to twice its size.
+const MOVING_BAND: (f64, f64) = (1.5, 0.5);
 /// Chunk size of the deterministic parallel loops.
 const CHUNK: usize = 4096;
 
@@ -1084,7 +1088,13 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         // Density control and repair of bad triangles.
         if iter % DENSITY_EVERY == 0 {
             let mu = metric.map(|_| (sl / sh).sqrt());
-            let band = if metric.is_some() { METRIC_BAND } else { (SPLIT_ABOVE, COLLAPSE_BELOW) };
+            let band = if metric.is_some() {
+                METRIC_BAND
+            } else if ctx.from_previous {
+                MOVING_BAND
+            } else {
+                (SPLIT_ABOVE, COLLAPSE_BELOW)
+            };
             let cands = density_candidates(ctx, &snap, &p, (sl / sh).sqrt(), mu, band)?;
             if !cands.is_empty() {
                 write_back(m, &snap, &p);
