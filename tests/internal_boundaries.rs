@@ -18,7 +18,7 @@ struct Check {
 
 /// Every internal-boundary node's distance to d_I = 0, and the triangles whose label is not
 /// constant on their side of d_I (a centroid on the other side from the label's majority).
-fn check(m: &TriMesh<DVec2>, d_i: &dyn Implicit2) -> Check {
+fn check(m: &TriMesh<DVec2>, d_i: &dyn Implicit2, h0: f64) -> Check {
     m.validate(Level::Geometry).expect("valid mesh, every triangle positive (exact)");
     let mut worst: f64 = 0.0;
     let mut internal_nodes = 0;
@@ -58,6 +58,24 @@ fn check(m: &TriMesh<DVec2>, d_i: &dyn Implicit2) -> Check {
             eprintln!("label {label}: {neg} triangles inside, {pos} outside d_I");
         }
     }
+    // No triangle may reach deep into the other side: samples inside each triangle lie on its
+    // label's side, up to the sagitta of a chord of the curve (a cut-off corner of a polygon
+    // reaches much deeper).
+    let deep = 0.15 * h0;
+    for f in m.face_ids() {
+        let (neg, pos) = side[&m.face(f).label];
+        let inside_label = neg > pos;
+        let [a, b, c] = m.face_points(f);
+        for (u, v) in [(1.0 / 3.0, 1.0 / 3.0), (2.0 / 3.0, 1.0 / 6.0), (1.0 / 6.0, 2.0 / 3.0), (1.0 / 6.0, 1.0 / 6.0)] {
+            let x = a + (b - a) * u + (c - a) * v;
+            let d = d_i.value(x);
+            if (inside_label && d > deep) || (!inside_label && d < -deep) {
+                crossing += 1;
+                eprintln!("triangle {:?} reaches {d:.3} into the other side", [a, b, c]);
+                break;
+            }
+        }
+    }
     Check { worst_internal: worst, internal_nodes, crossing, subdomains: side.len() }
 }
 
@@ -81,7 +99,7 @@ fn figure_3_5_square_with_a_circle_and_a_polygon() {
     let h0 = 0.05;
     let (out, d_i) = mesh_fig_3_5(h0);
     let m = &out.mesh;
-    let c = check(m, &d_i);
+    let c = check(m, &d_i, h0);
     let q = out.report.quality;
     println!(
         "| figure 3-5 | nodes | triangles | internal nodes | max |d_I|/h0 | crossing | subdomains | q min | q mean |"
@@ -154,7 +172,7 @@ proptest! {
         let h0 = 0.08;
         let opts = Options2::uniform(h0, [-1.0, -1.0], [1.0, 1.0]).with_fixed(fixed).with_internal(d_i.clone());
         let out = mesh_2d(&Rectangle::new([-1.0, -1.0], [1.0, 1.0]), &opts).expect("meshing succeeds");
-        let c = check(&out.mesh, &d_i);
+        let c = check(&out.mesh, &d_i, h0);
         prop_assert_eq!(c.crossing, 0);
         prop_assert!(c.worst_internal <= 1e-3 * h0, "worst |d_I| {}", c.worst_internal);
         prop_assert_eq!(c.subdomains, n_shapes + 1);

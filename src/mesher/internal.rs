@@ -94,17 +94,29 @@ fn on_curve(m: &TriMesh<DVec2>, v: VertexId, di: &Internal, tol: f64) -> Result<
 pub(crate) fn align(m: &mut TriMesh<DVec2>, di: &Internal, tol: f64) -> Result<(), Error> {
     for _round in 0..8 {
         let mut crossing = Vec::new();
+        let mut hidden = Vec::new();
         for h in m.edge_ids() {
             let (a, b) = (m.origin(h), m.dest(h));
-            if on_curve(m, a, di, tol)? || on_curve(m, b, di, tol)? {
-                continue;
-            }
-            if (di.value(m.pos(a))? < 0.0) != (di.value(m.pos(b))? < 0.0) {
+            let (ca, cb) = (on_curve(m, a, di, tol)?, on_curve(m, b, di, tol)?);
+            if !ca && !cb && (di.value(m.pos(a))? < 0.0) != (di.value(m.pos(b))? < 0.0) {
                 crossing.push((a, b));
+            } else if let Some(x) = hidden_crossing(di, m.pos(a), m.pos(b), ca, cb)? {
+                // The curve enters and leaves the edge between its ends (a corner of the
+                // curve next to the edge, or a thin feature): split there.
+                hidden.push((a, b, x));
             }
         }
-        if crossing.is_empty() {
+        if crossing.is_empty() && hidden.is_empty() {
             break;
+        }
+        for (a, b, x) in hidden {
+            let Some(h) = m.find_half_edge(a, b) else { continue };
+            if let Ok(v) = m.split_edge(h, x) {
+                m.set_tag(v, VertexTag::InternalBoundary { curve: 0 });
+                if let Some(q) = di.project(x)? {
+                    let _ = m.relocate(v, q);
+                }
+            }
         }
         for (a, b) in crossing {
             let Some(h) = m.find_half_edge(a, b) else { continue };
@@ -146,6 +158,33 @@ pub(crate) fn align(m: &mut TriMesh<DVec2>, di: &Internal, tol: f64) -> Result<(
     label_sides(m, di, tol)?;
     tag_interface(m);
     Ok(())
+}
+
+/// A point where d_I changes sign strictly inside the segment a-b although its ends do not
+/// show it (ends on the curve, or of the same sign; the caller handles ends of opposite
+/// signs): samples at quarters, then bisection.
+fn hidden_crossing(di: &Internal, a: DVec2, b: DVec2, a_on: bool, b_on: bool) -> Result<Option<DVec2>, Error> {
+    let mut prev: Option<(DVec2, bool)> = if a_on { None } else { Some((a, di.value(a)? < 0.0)) };
+    for k in 1..=4 {
+        let t = k as f64 / 4.0;
+        let (x, on) = if k == 4 { (b, b_on) } else { (a.lerp(b, t), false) };
+        if on {
+            break;
+        }
+        let v = di.value(x)?;
+        if v == 0.0 {
+            prev = None;
+            continue;
+        }
+        let side = v < 0.0;
+        if let Some((px, ps)) = prev {
+            if ps != side {
+                return Ok(Some(di.crossing(px, x)?));
+            }
+        }
+        prev = Some((x, side));
+    }
+    Ok(None)
 }
 
 /// Labels each face by the side of d_I its off-curve vertices lie on (the centroid decides

@@ -63,7 +63,7 @@ const METRIC_BAND: (f64, f64) = (1.45, 0.65);
 /// Starting from a previous mesh (moving meshes, remeshing), density control splits above and
 /// collapses below these target lengths: areas change, and the wide band of a fresh start
 /// would let a growing region coarsen to twice its size.
-const MOVING_BAND: (f64, f64) = (1.5, 0.5);
+const MOVING_BAND: (f64, f64) = (1.5, 0.6);
 /// Chunk size of the deterministic parallel loops.
 const CHUNK: usize = 4096;
 
@@ -346,17 +346,10 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
         })
         .collect();
     let (mut m, _) = TriMesh::from_arrays(&s, &[[0, 1, 2]]).map_err(|e| Error::Internal(e.to_string()))?;
-    // Fixed points first, exactly where given.
-    let mut hint = m.face_ids().next().expect("one face");
     for p in &opts.fixed {
         if ctx.approx_dist(*p)? > ctx.geps {
             return Err(Error::Invalid(format!("fixed point ({}, {}) lies outside the domain", p.x, p.y)));
         }
-        let (v, f) = m
-            .insert_delaunay(*p, hint)
-            .ok_or_else(|| Error::Internal("fixed point outside the enclosing triangle".into()))?;
-        m.set_tag(v, VertexTag::Fixed);
-        hint = f;
     }
     // Rounds of red refinement: every edge longer than its target (and not certainly
     // outside) is split at its midpoint, then Lawson flips restore Delaunay. On a uniform
@@ -388,6 +381,46 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
                 "initial refinement passed {cap} vertices (estimate {estimate:.0} triangles)"
             )));
         }
+    }
+    // Fixed points go in after the refinement, exactly where given: inserted first, they would
+    // bend the lattice into a grid of right triangles, a symmetric equilibrium of the truss
+    // that the forces never leave (the unit square with its corners fixed did exactly that).
+    // The nearest lattice vertex within half a lattice edge moves onto the point (no short
+    // edges); otherwise the point is inserted.
+    let mut hint = m.face_ids().next().expect("the refined mesh has faces");
+    for p in &opts.fixed {
+        use crate::topology::Location;
+        let near = match m.locate(*p, hint) {
+            Location::Vertex(v) => Some(v),
+            Location::Face(f) => {
+                m.face_vertices(f).into_iter().min_by(|&a, &b| m.pos(a).distance(*p).total_cmp(&m.pos(b).distance(*p)))
+            }
+            Location::Edge(h) => {
+                let (a, b) = (m.origin(h), m.dest(h));
+                Some(if m.pos(a).distance(*p) <= m.pos(b).distance(*p) { a } else { b })
+            }
+            Location::Outside(_) => None,
+        };
+        if let Some(v) = near {
+            let free = m.tag(v) != VertexTag::Fixed;
+            let old = m.pos(v);
+            if free && old.distance(*p) < 0.5 * opts.h0 * ctx.h(*p)? && m.relocate(v, *p).is_ok() {
+                // Only if the star stays fair; a sliver here would stall the alignment with
+                // internal boundaries and the carving.
+                let worst = m.vertex_faces(v).iter().map(|&f| m.face_quality(f)).fold(1.0, f64::min);
+                if worst >= 0.3 {
+                    m.set_tag(v, VertexTag::Fixed);
+                    hint = m.face_of_vertex(v);
+                    continue;
+                }
+                m.set_pos_unchecked(v, old);
+            }
+        }
+        let (v, f) = m
+            .insert_delaunay(*p, hint)
+            .ok_or_else(|| Error::Internal("fixed point outside the enclosing triangle".into()))?;
+        m.set_tag(v, VertexTag::Fixed);
+        hint = f;
     }
     if let Some(di) = &ctx.internal {
         internal::align(&mut m, di, ctx.geps)?;
@@ -445,6 +478,7 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
             keep_label.insert(*t, label);
         }
     }
+    keep = drop_islands(&keep, &inside);
     // Pinched vertices (two fans) would break the manifold structure: drop the triangles of
     // every fan but the largest, and repeat until none is left.
     for _ in 0..64 {
@@ -570,6 +604,48 @@ fn restore_fixed(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     Ok(())
 }
 
+/// Drops the pieces (edge-connected) of a carved triangle list that have no triangle with all
+/// three vertices inside: the triangles kept only for a fixed point at a corner can form an
+/// island apart from the mesh, which the boundary rows would later slide over. The fixed
+/// point is then restored onto the mesh by [`restore_fixed`].
+fn drop_islands(tris: &[[usize; 3]], inside: &[bool]) -> Vec<[usize; 3]> {
+    let mut by_edge: std::collections::HashMap<(usize, usize), Vec<usize>> =
+        std::collections::HashMap::with_capacity(tris.len() * 3);
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            by_edge.entry((a.min(b), a.max(b))).or_default().push(t);
+        }
+    }
+    let mut comp = vec![usize::MAX; tris.len()];
+    let mut has_core = Vec::new();
+    for start in 0..tris.len() {
+        if comp[start] != usize::MAX {
+            continue;
+        }
+        let c = has_core.len();
+        has_core.push(false);
+        comp[start] = c;
+        let mut stack = vec![start];
+        while let Some(t) = stack.pop() {
+            let tri = tris[t];
+            if tri.iter().all(|&i| inside[i]) {
+                has_core[c] = true;
+            }
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                for &u in &by_edge[&(a.min(b), a.max(b))] {
+                    if comp[u] == usize::MAX {
+                        comp[u] = c;
+                        stack.push(u);
+                    }
+                }
+            }
+        }
+    }
+    tris.iter().zip(&comp).filter(|(_, &c)| has_core[c]).map(|(t, _)| *t).collect()
+}
+
 /// Vertices with more than one boundary edge leaving them in a triangle list.
 pub(crate) fn pinched_vertices(n: usize, tris: &[[usize; 3]]) -> Vec<usize> {
     let mut dir = std::collections::HashSet::with_capacity(tris.len() * 3);
@@ -663,6 +739,8 @@ struct Snapshot {
     loop_nbrs: Vec<(u32, u32)>,
     /// Triangles over a boundary edge a -> b with an interior apex v: (v, a, b).
     apexes: Vec<(u32, u32, u32)>,
+    /// Neighbours along internal-boundary edges (up to two per vertex, u32::MAX if none).
+    iface_nbrs: Vec<[u32; 2]>,
 }
 
 impl Snapshot {
@@ -745,10 +823,36 @@ impl Snapshot {
                 apexes.push((index[apex], index[m.origin(inner)], v as u32));
             }
         }
-        Snapshot { ids, kind, adj_start, adj, tris, tri_faces, edges, quads, quad_edges, loop_nbrs, apexes }
+        let mut iface_nbrs = Vec::new();
+        if edges.iter().any(|e| e.3 == EDGE_INTERFACE) {
+            iface_nbrs = vec![[u32::MAX; 2]; ids.len()];
+            for &(a, b, _, kind) in &edges {
+                if kind == EDGE_INTERFACE {
+                    for (x, y) in [(a, b), (b, a)] {
+                        let slot = &mut iface_nbrs[x as usize];
+                        if slot[0] == u32::MAX {
+                            slot[0] = y;
+                        } else {
+                            slot[1] = y;
+                        }
+                    }
+                }
+            }
+        }
+        Snapshot { ids, kind, adj_start, adj, tris, tri_faces, edges, quads, quad_edges, loop_nbrs, apexes, iface_nbrs }
     }
 
     /// Edges that fail the exact in-circle test at positions `p`, found in parallel.
+    /// Whether moving internal-boundary vertex i from p[i] to q keeps it on the same side of
+    /// each of its neighbours along the curve (seen along the edge to that neighbour).
+    fn keeps_curve_order(&self, i: usize, p: &[DVec2], q: DVec2) -> bool {
+        let Some(nb) = self.iface_nbrs.get(i) else { return true };
+        nb.iter().filter(|&&j| j != u32::MAX).all(|&j| {
+            let pj = p[j as usize];
+            (q - pj).dot(p[i] - pj) > 0.0
+        })
+    }
+
     /// With a metric, `ctx` decides by [`Ctx::metric_flip`] instead.
     fn non_delaunay(&self, p: &[DVec2], ctx: Option<&Ctx>) -> Vec<HalfEdgeId> {
         self.quads
@@ -1032,9 +1136,12 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                     },
                     Err(e) => Some(Err(e)),
                 },
-                // Internal-boundary nodes back onto d_I = 0 every step: they slide along it.
+                // Internal-boundary nodes back onto d_I = 0 every step: they slide along it, but
+                // never past a neighbour along it (near a corner of the curve the projection
+                // could jump to the far side of the corner).
                 INTERNAL => match ctx.project_internal(newp[i]) {
-                    Ok(Some(q)) => Some(Ok((i, q))),
+                    Ok(Some(q)) if snap.keeps_curve_order(i, &p, q) => Some(Ok((i, q))),
+                    Ok(Some(_)) => Some(Ok((i, p[i]))),
                     Ok(None) => Some(Ok((i, p[i]))),
                     Err(e) => Some(Err(e)),
                 },
@@ -1276,12 +1383,23 @@ fn join_internal(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, snap: &Snapshot, joining
             }
         }
         let Some((_, f, label)) = best else { continue };
+        // The node joins between the two ends of that edge: its projection must land between
+        // them and near the edge (near a corner of the curve it could land on another side).
+        let Some(q) = ctx.project_internal(m.pos(v))? else { continue };
+        let [x, y] = m
+            .face_half_edges(f)
+            .iter()
+            .find(|&&h| m.origin(h) != v && m.dest(h) != v)
+            .map_or([DVec2::NAN; 2], |&h| [m.pos(m.origin(h)), m.pos(m.dest(h))]);
+        let between = (q - x).dot(y - x) > 0.0 && (q - y).dot(x - y) > 0.0;
+        let off = (y - x).perp_dot(q - x).abs() / x.distance(y);
+        if !between || off > 0.3 * x.distance(y) {
+            continue;
+        }
         m.set_label(f, label);
         m.set_tag(v, VertexTag::InternalBoundary { curve: 0 });
         ctx.joined += 1;
-        if let Some(q) = ctx.project_internal(m.pos(v))? {
-            let _ = m.relocate(v, q);
-        }
+        let _ = m.relocate(v, q);
         changed = true;
     }
     Ok(changed)
