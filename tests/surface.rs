@@ -1,0 +1,182 @@
+//! Surface meshes of implicit surfaces (seed section 3.6.1): the seed's figure 3-7 surface, a
+//! sphere, a torus and a genus-2 surface, with the quality thresholds. Prints the table
+//! kept in docs/quality.md.
+
+use glam::DVec3;
+use trussmesh::surface::{mesh_implicit_surface, SurfaceOptions, SurfaceOutput, SurfaceQuality};
+use trussmesh::topology::Level;
+use trussmesh::Error;
+
+/// Seed eq. 3.27: the blending function of the smoothed set operations.
+fn g_blend(s: f64, r: f64) -> f64 {
+    if s <= r {
+        4.0 * (s - r) * (s - r) * (9.0 * r / 4.0 - s) / (9.0 * r * r * r)
+    } else {
+        0.0
+    }
+}
+
+/// Seed eq. 3.24-3.26: a ball of radius 1.2 minus a cylinder of radius 0.5 along y, smoothed
+/// with R = 0.5. A ball with a hole through it: genus 1.
+fn fig37(p: DVec3) -> f64 {
+    let d1 = p.length() - 1.2;
+    let d2 = (p.x * p.x + p.z * p.z).sqrt() - 0.5;
+    g_blend(-d1, 0.5) + g_blend(d2, 0.5) - 1.0
+}
+
+fn sphere(p: DVec3) -> f64 {
+    p.length() - 1.0
+}
+
+fn torus_at(p: DVec3, c: DVec3, big: f64, small: f64) -> f64 {
+    let q = p - c;
+    let rho = (q.x * q.x + q.y * q.y).sqrt() - big;
+    (rho * rho + q.z * q.z).sqrt() - small
+}
+
+fn torus(p: DVec3) -> f64 {
+    torus_at(p, DVec3::ZERO, 1.0, 0.3)
+}
+
+/// Two tori (R = 1, r = 0.3) centred 1.8 apart, joined by a polynomial smooth minimum of
+/// width 0.2: a double torus, genus 2.
+fn double_torus(p: DVec3) -> f64 {
+    let a = torus_at(p, DVec3::new(-0.9, 0.0, 0.0), 1.0, 0.3);
+    let b = torus_at(p, DVec3::new(0.9, 0.0, 0.0), 1.0, 0.3);
+    let k = 0.2;
+    let h = (0.5 + 0.5 * (b - a) / k).clamp(0.0, 1.0);
+    b + (a - b) * h - k * h * (1.0 - h)
+}
+
+struct Case {
+    name: &'static str,
+    out: SurfaceOutput,
+    euler: i64,
+    h0: f64,
+}
+
+fn run(name: &'static str, phi: fn(DVec3) -> f64, opts: SurfaceOptions, euler: i64) -> Case {
+    let h0 = opts.h0;
+    let out = mesh_implicit_surface(&phi, &opts).unwrap_or_else(|e| panic!("{name}: {e}"));
+    Case { name, out, euler, h0 }
+}
+
+fn table(cases: &[&Case]) {
+    println!(
+        "| surface | h0 | vertices | triangles | Euler | min angle | mean q | min q | size dev | vertex residual / h0 | centroid dev max / h | iterations | time s |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for c in cases {
+        let q = &c.out.report.quality;
+        println!(
+            "| {} | {} | {} | {} | {} | {:.1} | {:.4} | {:.3} | {:.1}% | {:.0e} | {:.1e} | {} | {:.1} |",
+            c.name,
+            c.h0,
+            q.vertices,
+            q.triangles,
+            q.euler,
+            q.min_angle,
+            q.mean_q,
+            q.min_q,
+            100.0 * q.size_deviation,
+            q.vertex_residual,
+            q.centroid_deviation_max,
+            c.out.report.iterations,
+            c.out.report.seconds
+        );
+    }
+}
+
+/// The topology and distance checks every case must pass.
+fn check_valid(c: &Case) {
+    let q: &SurfaceQuality = &c.out.report.quality;
+    c.out.mesh.validate(Level::Topology).unwrap_or_else(|e| panic!("{}: {e}", c.name));
+    assert!(q.closed_manifold, "{}: not a closed manifold", c.name);
+    assert_eq!(q.inward_faces, 0, "{}: faces against grad phi", c.name);
+    assert_eq!(q.euler, c.euler, "{}: Euler characteristic", c.name);
+    assert!(q.vertex_residual < 1e-6, "{}: vertex residual {} h0", c.name, q.vertex_residual);
+    assert!(q.centroid_deviation_max < 0.05, "{}: centroid deviation {}", c.name, q.centroid_deviation_max);
+}
+
+/// The quality thresholds (better than Gmsh's sphere 26.8 / 0.986 / 5.8% and torus
+/// 37.7 / 0.980 / 6.2% at h = 0.1).
+fn check_quality(c: &Case) {
+    let q = &c.out.report.quality;
+    assert!(q.min_angle >= 35.0, "{}: min angle {}", c.name, q.min_angle);
+    assert!(q.mean_q >= 0.98, "{}: mean q {}", c.name, q.mean_q);
+    assert!(q.size_deviation <= 0.05, "{}: size deviation {}", c.name, q.size_deviation);
+}
+
+fn bbox(r: f64) -> [DVec3; 2] {
+    [DVec3::splat(-r), DVec3::splat(r)]
+}
+
+#[test]
+fn sphere_h01() {
+    let c = run("unit sphere", sphere, SurfaceOptions::uniform(0.1, bbox(1.2)), 2);
+    table(&[&c]);
+    println!("{}", c.out.report);
+    check_valid(&c);
+    check_quality(&c);
+}
+
+#[test]
+fn torus_h01() {
+    let c = run("torus R=1 r=0.3", torus, SurfaceOptions::uniform(0.1, bbox(1.5)), 0);
+    table(&[&c]);
+    println!("{}", c.out.report);
+    check_valid(&c);
+    check_quality(&c);
+}
+
+#[test]
+fn genus2_h005() {
+    let b = [DVec3::new(-2.4, -1.5, -0.5), DVec3::new(2.4, 1.5, 0.5)];
+    let c = run("double torus", double_torus, SurfaceOptions::uniform(0.05, b), -2);
+    table(&[&c]);
+    println!("{}", c.out.report);
+    check_valid(&c);
+    check_quality(&c);
+}
+
+#[test]
+fn fig37_curvature() {
+    let opts = SurfaceOptions::uniform(0.05, bbox(1.4)).with_curvature(4.0, 0.3, 0.2);
+    let c = run("seed fig. 3-7", fig37, opts, 0);
+    table(&[&c]);
+    println!("{}", c.out.report);
+    check_valid(&c);
+    check_quality(&c);
+}
+
+#[test]
+fn same_input_same_mesh() {
+    let opts = SurfaceOptions::uniform(0.2, bbox(1.2)).with_max_iterations(60);
+    let a = mesh_implicit_surface(&sphere, &opts).unwrap();
+    let b = mesh_implicit_surface(&sphere, &opts).unwrap();
+    let (pa, ta, _, _) = a.mesh.to_arrays();
+    let (pb, tb, _, _) = b.mesh.to_arrays();
+    assert_eq!(ta, tb);
+    assert!(pa.iter().zip(&pb).all(|(x, y)| x.to_array().map(f64::to_bits) == y.to_array().map(f64::to_bits)));
+    assert!(a.report.quality.closed_manifold);
+}
+
+#[test]
+fn bad_input_is_a_typed_error() {
+    let b = bbox(1.2);
+    let e = mesh_implicit_surface(&sphere, &SurfaceOptions::uniform(0.0, b)).unwrap_err();
+    assert!(matches!(e, Error::BadSize(_)), "{e}");
+    let e = mesh_implicit_surface(&sphere, &SurfaceOptions::uniform(-1.0, b)).unwrap_err();
+    assert!(matches!(e, Error::BadSize(_)), "{e}");
+    let e = mesh_implicit_surface(&|p: DVec3| p.length() - 5.0, &SurfaceOptions::uniform(0.2, b)).unwrap_err();
+    assert!(matches!(e, Error::EmptyDomain(_)), "{e}");
+    let e = mesh_implicit_surface(&|p: DVec3| p.length() + 1.0, &SurfaceOptions::uniform(0.2, b)).unwrap_err();
+    assert!(matches!(e, Error::EmptyDomain(_)), "{e}");
+    let e = mesh_implicit_surface(&|p: DVec3| (p.length() - 1.0).sqrt(), &SurfaceOptions::uniform(0.2, b)).unwrap_err();
+    assert!(matches!(e, Error::NonFinite { .. }), "{e}");
+    // A surface cut by the box is not closed.
+    let e = mesh_implicit_surface(&sphere, &SurfaceOptions::uniform(0.2, bbox(0.6))).unwrap_err();
+    assert!(matches!(e, Error::Invalid(_)), "{e}");
+    let e = mesh_implicit_surface(&sphere, &SurfaceOptions::uniform(0.2, [DVec3::ONE, -DVec3::ONE])).unwrap_err();
+    assert!(matches!(e, Error::BadBox(_)), "{e}");
+}
