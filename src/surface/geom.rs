@@ -3,7 +3,7 @@
 
 use crate::geometry::{Grid3, Implicit3};
 use crate::Error;
-use glam::DVec3;
+use glam::{DMat3, DVec3};
 
 /// Projection steps allowed per node; each is a Newton step on phi along grad phi, so near the
 /// surface a handful suffices.
@@ -78,11 +78,45 @@ impl SizeField {
             SizeField::Grid(g) => g.value(p),
         }
     }
+    /// The same field times `s` (a coarser level of the start mesh).
+    pub fn scaled(&self, s: f64) -> SizeField {
+        match self {
+            SizeField::Uniform(h) => SizeField::Uniform(h * s),
+            SizeField::Grid(g) => {
+                let v = g.values().iter().map(|h| h * s).collect();
+                // The grid was valid and s is positive and finite, so this cannot fail.
+                SizeField::Grid(
+                    Grid3::new(g.origin(), g.spacing(), g.dims(), v)
+                        .map(|n| n.with_distance(false))
+                        .unwrap_or_else(|_| g.clone()),
+                )
+            }
+        }
+    }
     /// The smallest size anywhere.
     pub fn min(&self) -> f64 {
         match self {
             SizeField::Uniform(h) => *h,
             SizeField::Grid(g) => g.values().iter().copied().fold(f64::INFINITY, f64::min),
         }
+    }
+}
+
+/// The principal curvature of largest magnitude of the level set through `p` (the Hessian from
+/// phi if it has one, else central differences of the gradient).
+pub fn max_curvature(phi: &dyn Implicit3, p: DVec3) -> f64 {
+    let g = phi.gradient(p);
+    let hes = phi.hessian(p).unwrap_or_else(|| {
+        let e = 1e-4 * p.abs().max_element().max(1.0);
+        let col = |d: DVec3| (phi.gradient(p + d) - phi.gradient(p - d)) / (2.0 * e);
+        let m = DMat3::from_cols(col(DVec3::X * e), col(DVec3::Y * e), col(DVec3::Z * e));
+        // Symmetrise: differences of a gradient are only nearly symmetric.
+        (m + m.transpose()) * 0.5
+    });
+    let k = crate::size::max_principal(g, hes);
+    if k.is_finite() {
+        k
+    } else {
+        0.0
     }
 }

@@ -51,7 +51,7 @@ pub enum SurfaceSize {
 }
 
 /// Options of [`mesh_implicit_surface`]. Defaults: uniform size, 400 iterations, Fscale 1.2,
-/// time step 0.2, movement tolerance 1e-3 h.
+/// time step 0.3, movement tolerance 1e-3 h.
 #[derive(Clone, Debug)]
 #[non_exhaustive]
 pub struct SurfaceOptions {
@@ -77,7 +77,7 @@ impl SurfaceOptions {
     /// Default Fscale.
     pub const DEFAULT_FSCALE: f64 = 1.2;
     /// Default time step.
-    pub const DEFAULT_DT: f64 = 0.2;
+    pub const DEFAULT_DT: f64 = 0.3;
     /// Default movement tolerance.
     pub const DEFAULT_DPTOL: f64 = 1e-3;
 
@@ -143,6 +143,10 @@ pub struct SurfaceOutput {
 
 /// Remeshing passes that bring the start mesh to the target density.
 const REMESH_PASSES: usize = 12;
+/// Coarsest start level: the start mesh is made at up to 2^MAX_LEVELS times the target size.
+const MAX_LEVELS: u32 = 3;
+/// Largest turn of the normal along one edge of the coarsest start mesh, radians.
+const MAX_TURN: f64 = 0.8;
 /// Split above 4/3 h, collapse below 4/5 h (the remeshing hysteresis of Botsch and Kobbelt).
 const REMESH_HI: f64 = 4.0 / 3.0;
 const REMESH_LO: f64 = 0.8;
@@ -170,7 +174,43 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
     };
     let hmin = size.min();
     let tol = PROJECT_TOL * hmin;
-    let marched = march::march(phi, opts.bbox, hmin)?;
+    // The finest marching fixes the topology; the start mesh is made at the coarsest level
+    // 2^k h with the same Euler characteristic and component count, then subdivided k times,
+    // so that the fine mesh has only the coarse mesh's irregular vertices.
+    let fine = march::march(phi, opts.bbox, hmin)?;
+    let signature = |mc: &march::Marched| {
+        let mut edges: Vec<(usize, usize)> = mc
+            .triangles
+            .iter()
+            .flat_map(|t| [0, 1, 2].map(|k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let chi = mc.points.len() as i64 - edges.len() as i64 + mc.triangles.len() as i64;
+        (chi, ops::components(mc.points.len(), &mc.triangles))
+    };
+    let want = signature(&fine);
+    // The coarse level must still follow the surface: at most MAX_TURN radians per edge.
+    let mut kmax = 0.0f64;
+    for &p in &fine.points {
+        kmax = kmax.max(geom::max_curvature(phi, project(phi, p, tol)?).abs());
+    }
+    let mut levels = 0;
+    let mut marched = fine;
+    for k in (1..=MAX_LEVELS).rev() {
+        let hk = hmin * (1u32 << k) as f64;
+        if hk * kmax > MAX_TURN {
+            continue;
+        }
+        let coarse = march::march(phi, opts.bbox, hk);
+        if let Ok(c) = coarse {
+            if signature(&c) == want {
+                levels = k;
+                marched = c;
+                break;
+            }
+        }
+    }
     let (mut m, _) = TriMesh::from_arrays(&marched.points, &marched.triangles)
         .map_err(|e| Error::Internal(format!("marching tetrahedra made an invalid mesh: {e}")))?;
     let mut report = SurfaceReport::default();
@@ -180,16 +220,22 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
         ops::move_if_no_fold(&mut m, phi, v, p);
     }
     let mut counts = OpCounts::default();
-    for _ in 0..REMESH_PASSES {
-        counts.splits += split_long(&mut m, phi, &size, REMESH_HI, tol)?;
-        counts.collapses += collapse_short(&mut m, phi, &size, REMESH_LO, REMESH_HI, 0.0, tol)?;
-        counts.flips += flip_pass(&mut m, phi, FlipGoal::Valence, 3);
-        smooth_tangential(&mut m, phi, 0.5, tol)?;
-        report.remesh_passes += 1;
+    for level in (0..=levels).rev() {
+        let level_size = size.scaled((1u32 << level) as f64);
+        for _ in 0..REMESH_PASSES {
+            counts.splits += split_long(&mut m, phi, &level_size, REMESH_HI, tol)?;
+            counts.collapses += collapse_short(&mut m, phi, &level_size, REMESH_LO, REMESH_HI, 0.0, tol)?;
+            counts.flips += flip_pass(&mut m, phi, FlipGoal::Valence, 3);
+            smooth_tangential(&mut m, phi, 0.5, tol)?;
+            report.remesh_passes += 1;
+        }
+        if level > 0 {
+            counts.splits += ops::subdivide(&mut m, phi, tol)?;
+        }
     }
     counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
 
-    let mut best = (score(&m), m.clone(), 0usize);
+    let mut best = (score(&m, &size), m.clone(), 0usize);
     for it in 1..=opts.max_iterations {
         report.iterations = it;
         let moved = force_step(&mut m, phi, &size, opts, &mut report.undone_moves)?;
@@ -204,7 +250,7 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
                 counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
             }
         }
-        let sc = score(&m);
+        let sc = score(&m, &size);
         if sc > best.0 {
             best = (sc, m.clone(), it);
         }
@@ -213,7 +259,8 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
             break;
         }
     }
-    let (_, mut m, kept) = best;
+    // A converged run keeps its last mesh; a run stopped by the cap keeps the best one seen.
+    let (mut m, kept) = if report.converged { (m, report.iterations) } else { (best.1, best.2) };
     // Final projection to the tight tolerance (the loop already projects every step).
     let ids: Vec<VertexId> = m.vertex_ids().collect();
     for v in ids {
@@ -227,15 +274,26 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
     Ok(SurfaceOutput { mesh: m, size, report })
 }
 
-/// The quality that picks the kept mesh: the worst triangle counts as much as the mean.
-fn score(m: &TriMesh<DVec3>) -> f64 {
+/// The figure that picks the kept mesh: mean plus worst quality, minus the size deviation
+/// (std / mean of edge length over h).
+fn score(m: &TriMesh<DVec3>, size: &SizeField) -> f64 {
     let (mut min_q, mut sum) = (1.0f64, 0.0);
     for f in m.face_ids() {
         let q = m.face_quality(f);
         min_q = min_q.min(q);
         sum += q;
     }
-    min_q + sum / m.num_faces().max(1) as f64
+    let (mut n, mut s1, mut s2) = (0.0, 0.0, 0.0);
+    for e in m.edge_ids() {
+        let (p, q) = (m.pos(m.origin(e)), m.pos(m.dest(e)));
+        let r = p.distance(q) / size.at(0.5 * (p + q));
+        n += 1.0;
+        s1 += r;
+        s2 += r * r;
+    }
+    let mean = s1 / n;
+    let dev = ((s2 / n - mean * mean).max(0.0)).sqrt() / mean;
+    min_q + sum / m.num_faces().max(1) as f64 - dev
 }
 
 /// One truss step (seed eq. 2.6 forces, forward Euler in the tangent plane, projection).

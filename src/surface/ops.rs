@@ -220,3 +220,63 @@ pub fn move_if_no_fold(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, v: VertexId,
     m.set_pos_unchecked(v, p);
     true
 }
+
+/// Regular 1-to-4 subdivision: every edge split at its projected midpoint, then every edge
+/// from a new vertex to an old vertex that is not its parent flipped. New vertices get valence
+/// 6, so the irregular vertices of the coarse mesh are all the fine mesh has.
+pub fn subdivide(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, tol: f64) -> Result<usize, Error> {
+    use slotmap::SecondaryMap;
+    let mut old: SecondaryMap<VertexId, ()> = SecondaryMap::new();
+    for v in m.vertex_ids() {
+        old.insert(v, ());
+    }
+    let mut parent: SecondaryMap<VertexId, (VertexId, VertexId)> = SecondaryMap::new();
+    let mut n = 0;
+    for (a, b) in edge_list(m) {
+        let Some(h) = m.find_half_edge(a, b) else { continue };
+        let p = project(phi, 0.5 * (m.pos(a) + m.pos(b)), tol)?;
+        if let Ok(v) = m.split_edge(h, p) {
+            parent.insert(v, (a, b));
+            n += 1;
+        }
+    }
+    for (a, b) in edge_list(m) {
+        let (new, o) = if parent.contains_key(a) && old.contains_key(b) {
+            (a, b)
+        } else if parent.contains_key(b) && old.contains_key(a) {
+            (b, a)
+        } else {
+            continue;
+        };
+        let (p0, p1) = parent[new];
+        if o == p0 || o == p1 {
+            continue;
+        }
+        if let Some(h) = m.find_half_edge(a, b) {
+            // A refused flip leaves a valence defect, never an invalid mesh.
+            let _ = m.flip(h);
+        }
+    }
+    Ok(n)
+}
+
+/// Number of connected components (by shared vertices) of a triangle list over `n` points.
+pub fn components(n: usize, tris: &[[usize; 3]]) -> usize {
+    let mut up: Vec<usize> = (0..n).collect();
+    fn root(up: &mut [usize], mut i: usize) -> usize {
+        while up[i] != i {
+            up[i] = up[up[i]];
+            i = up[i];
+        }
+        i
+    }
+    for t in tris {
+        for k in 1..3 {
+            let (x, y) = (root(&mut up, t[0]), root(&mut up, t[k]));
+            if x != y {
+                up[x.max(y)] = x.min(y);
+            }
+        }
+    }
+    (0..n).filter(|&i| root(&mut up, i) == i).count()
+}
