@@ -238,7 +238,7 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
     let mut best = (score(&m, &size), m.clone(), 0usize);
     for it in 1..=opts.max_iterations {
         report.iterations = it;
-        let moved = force_step(&mut m, phi, &size, opts, &mut report.undone_moves)?;
+        let moved = force_step(&mut m, phi, &size, opts, tol, &mut report.undone_moves)?;
         counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 5);
         let late = it + 3 * DENSITY_EVERY > opts.max_iterations;
         if it % DENSITY_EVERY == 0 && !late {
@@ -303,6 +303,7 @@ fn force_step(
     phi: &dyn Implicit3,
     size: &SizeField,
     opts: &SurfaceOptions,
+    tol: f64,
     undone: &mut usize,
 ) -> Result<f64, Error> {
     let ids: Vec<VertexId> = m.vertex_ids().collect();
@@ -341,7 +342,7 @@ fn force_step(
         let p = pos[i];
         let n = normal(phi, p);
         let f = force[i] - force[i].dot(n) * n;
-        let q = project(phi, p + opts.dt * f, PROJECT_TOL * size.min())?;
+        let q = project(phi, p + opts.dt * f, tol)?;
         if ops::move_if_no_fold(m, phi, v, q) {
             moved = moved.max(q.distance(p) / size.at(p));
         } else {
