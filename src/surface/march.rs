@@ -54,12 +54,6 @@ pub fn march(phi: &dyn Implicit3, bbox: [DVec3; 2], h: f64) -> Result<Marched, E
                 if !v.is_finite() {
                     return Err(Error::NonFinite { what: "phi", value: v, at: p.to_array() });
                 }
-                let on_side = i == 0 || j == 0 || k == 0 || i + 1 == n[0] || j + 1 == n[1] || k + 1 == n[2];
-                if on_side && v < 0.0 {
-                    return Err(Error::Invalid(format!(
-                        "phi < 0 at {p} on the edge of the box: the surface phi = 0 is not closed inside the bounding box (enlarge it)"
-                    )));
-                }
                 neg |= v < 0.0;
                 pos |= v >= 0.0;
                 f[idx(i, j, k)] = v;
@@ -67,7 +61,23 @@ pub fn march(phi: &dyn Implicit3, bbox: [DVec3; 2], h: f64) -> Result<Marched, E
         }
     }
     if !(neg && pos) {
-        return Err(Error::EmptyDomain("phi has no zero set (no sign change) in the bounding box".into()));
+        let sign = if neg { "negative" } else { "positive" };
+        return Err(Error::EmptyDomain(format!(
+            "phi is {sign} everywhere in the bounding box: no surface phi = 0 in it"
+        )));
+    }
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                let on_side = i == 0 || j == 0 || k == 0 || i + 1 == n[0] || j + 1 == n[1] || k + 1 == n[2];
+                if on_side && f[idx(i, j, k)] < 0.0 {
+                    return Err(Error::Invalid(format!(
+                        "phi < 0 at {} on the edge of the box: the surface phi = 0 is not closed inside the bounding box (enlarge it)",
+                        at(i, j, k)
+                    )));
+                }
+            }
+        }
     }
     let mut points: Vec<DVec3> = Vec::new();
     let mut key_of: HashMap<(usize, usize), usize> = HashMap::new();
