@@ -50,7 +50,7 @@ pub enum SurfaceSize {
     },
 }
 
-/// Options of [`mesh_implicit_surface`]. Defaults: uniform size, 400 iterations, Fscale 1.2,
+/// Options of [`mesh_implicit_surface`]. Defaults: uniform size, 1000 iterations, Fscale 1.2,
 /// time step 0.3, movement tolerance 1e-3 h.
 #[derive(Clone, Debug)]
 #[non_exhaustive]
@@ -73,7 +73,7 @@ pub struct SurfaceOptions {
 
 impl SurfaceOptions {
     /// Default iteration cap.
-    pub const DEFAULT_MAX_ITERATIONS: usize = 400;
+    pub const DEFAULT_MAX_ITERATIONS: usize = 1000;
     /// Default Fscale.
     pub const DEFAULT_FSCALE: f64 = 1.2;
     /// Default time step.
