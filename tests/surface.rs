@@ -254,3 +254,35 @@ fn bad_input_is_a_typed_error() {
     let e = mesh_implicit_surface(&sphere, &SurfaceOptions::uniform(0.2, [DVec3::ONE, -DVec3::ONE])).unwrap_err();
     assert!(matches!(e, Error::BadBox(_)), "{e}");
 }
+
+#[test]
+fn marching_start_is_closed_and_outward() {
+    let mc = trussmesh::surface::march::march(&sphere, bbox(1.2), 0.15).unwrap();
+    let (m, _) = trussmesh::topology::TriMesh::from_arrays(&mc.points, &mc.triangles).unwrap();
+    m.validate(Level::Topology).unwrap();
+    assert!(m.boundary_loops().is_empty());
+    assert_eq!(m.euler_characteristic(), 2);
+    // Outward: every normal points away from the centre of the sphere.
+    for f in m.face_ids() {
+        let [a, b, c] = m.face_points(f);
+        assert!((b - a).cross(c - a).dot(a + b + c) > 0.0);
+    }
+    let torus_box = [DVec3::new(-1.5, -1.5, -0.5), DVec3::new(1.5, 1.5, 0.5)];
+    let mc = trussmesh::surface::march::march(&torus, torus_box, 0.1).unwrap();
+    let (m, _) = trussmesh::topology::TriMesh::from_arrays(&mc.points, &mc.triangles).unwrap();
+    assert_eq!(m.euler_characteristic(), 0);
+}
+
+#[test]
+fn subdivision_adds_only_regular_vertices() {
+    let mc = trussmesh::surface::march::march(&sphere, bbox(1.2), 0.4).unwrap();
+    let (mut m, _) = trussmesh::topology::TriMesh::from_arrays(&mc.points, &mc.triangles).unwrap();
+    let irregular = |m: &trussmesh::topology::TriMesh<DVec3>| m.vertex_ids().filter(|&v| m.valence(v) != 6).count();
+    let (v0, e0, f0, i0) = (m.num_vertices(), m.num_edges(), m.num_faces(), irregular(&m));
+    let n = trussmesh::surface::ops::subdivide(&mut m, &sphere, 1e-12).unwrap();
+    assert_eq!(n, e0);
+    assert_eq!((m.num_vertices(), m.num_faces()), (v0 + e0, 4 * f0));
+    assert_eq!(irregular(&m), i0);
+    m.validate(Level::Topology).unwrap();
+    assert_eq!(m.euler_characteristic(), 2);
+}

@@ -166,6 +166,13 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
     let size = match opts.size {
         SurfaceSize::Uniform => SizeField::Uniform(opts.h0),
         SurfaceSize::Curvature { k, g, hmax } => {
+            // The size grid has spacing h0/2 over the padded box: refuse before allocating it.
+            let span = opts.bbox[1] - opts.bbox[0] + DVec3::splat(4.0 * opts.h0);
+            let nodes = (span / (0.5 * opts.h0)).ceil() + DVec3::ONE;
+            let estimated = nodes.x * nodes.y * nodes.z;
+            if estimated > march::MAX_GRID_NODES as f64 {
+                return Err(Error::TooManyElements { estimated: estimated as u64, limit: march::MAX_GRID_NODES });
+            }
             let params = SizeParams { k, r: 0.0, g, hmin: opts.h0, hmax, ..SizeParams::default() };
             let pad = DVec3::splat(2.0 * opts.h0);
             let grid = auto_size_3d(phi, [opts.bbox[0] - pad, opts.bbox[1] + pad], 0.5 * opts.h0, &params)?;
