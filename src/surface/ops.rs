@@ -280,3 +280,52 @@ pub fn components(n: usize, tris: &[[usize; 3]]) -> usize {
     }
     (0..n).filter(|&i| root(&mut up, i) == i).count()
 }
+
+/// Gauss-Seidel sweeps that move each vertex in its tangent plane to bring the lengths of its
+/// edges toward `scale` h(midpoint): one Gauss-Newton step on sum (|p - n_j| - t_j)^2 per
+/// vertex and sweep, limited to a fifth of h, then projected; moves that would fold are skipped.
+/// The force iteration's equilibrium balances forces, not lengths; this lowers the spread of
+/// the edge lengths directly. Returns the largest move relative to h.
+pub fn equalize_lengths(
+    m: &mut TriMesh<DVec3>,
+    phi: &dyn Implicit3,
+    size: &SizeField,
+    scale: f64,
+    tol: f64,
+) -> Result<f64, Error> {
+    use glam::DMat3;
+    let ids: Vec<VertexId> = m.vertex_ids().collect();
+    let mut largest = 0.0f64;
+    for v in ids {
+        let p = m.pos(v);
+        let n = super::geom::normal(phi, p);
+        let mut a = DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+        let mut rhs = DVec3::ZERO;
+        for w in m.neighbours(v) {
+            let q = m.pos(w);
+            let d = p - q;
+            let l = d.length();
+            if l == 0.0 {
+                continue;
+            }
+            let u = d / l;
+            let u = u - u.dot(n) * n;
+            let r = l - scale * size.at(0.5 * (p + q));
+            a += DMat3::from_cols(u * u.x, u * u.y, u * u.z);
+            rhs -= r * u;
+        }
+        if a.determinant().abs() < 1e-12 {
+            continue;
+        }
+        let mut step = a.inverse() * rhs;
+        let h = size.at(p);
+        if step.length() > 0.2 * h {
+            step *= 0.2 * h / step.length();
+        }
+        let target = project(phi, p + step, tol)?;
+        if move_if_no_fold(m, phi, v, target) {
+            largest = largest.max(target.distance(p) / h);
+        }
+    }
+    Ok(largest)
+}

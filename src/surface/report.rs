@@ -111,6 +111,8 @@ pub struct SurfaceReport {
     pub kept_iteration: usize,
     /// Operation counts.
     pub ops: super::ops::OpCounts,
+    /// Length-equalising sweeps after the force iteration.
+    pub equalize_sweeps: usize,
     /// Moves undone because they would fold a triangle.
     pub undone_moves: usize,
     /// The kept mesh's figures.
@@ -133,11 +135,12 @@ impl fmt::Display for SurfaceReport {
         )?;
         writeln!(
             f,
-            "iterations {} ({}), kept {}; remesh passes {}; splits {}, collapses {}, flips {}, undone moves {}",
+            "iterations {} ({}), kept {}; remesh passes {}, equalising sweeps {}; splits {}, collapses {}, flips {}, undone moves {}",
             self.iterations,
             if self.converged { "converged" } else { "cap reached" },
             self.kept_iteration,
             self.remesh_passes,
+            self.equalize_sweeps,
             self.ops.splits,
             self.ops.collapses,
             self.ops.flips,
