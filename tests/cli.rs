@@ -143,7 +143,7 @@ fn docs_commands_run() {
         std::fs::write(dir.join(name), &b).unwrap();
     }
     let cmds = doc_mesh_commands();
-    assert!(cmds.len() >= 13, "{cmds:?}");
+    assert!(cmds.len() >= 15, "{cmds:?}");
     let mut failures = Vec::new();
     for line in &cmds {
         let words = shell_words(line);
@@ -252,6 +252,45 @@ fn other_bad_mesh_input() {
     bad_in(&dir, &["mesh", "s.toml"], &["h0 must be positive"]);
     std::fs::write(dir.join("t.toml"), "domain = \"x\"\nh = 1\n").unwrap();
     bad_in(&dir, &["mesh", "t.toml"], &["bad scene file", "t.toml"]);
+}
+
+#[test]
+fn internal_boundaries_label_subdomains() {
+    let dir = tmp("internal");
+    let args = [
+        "mesh",
+        "--domain",
+        "drectangle(x,y,-1,1,-1,1)",
+        "--internal",
+        "min(dcircle(x,y,-0.4,0,0.3), dcircle(x,y,0.5,0.2,0.3))",
+        "--h0",
+        "0.1",
+        "--bbox",
+        "-1,-1,1,1",
+        "--fix",
+        "-1,-1; 1,-1; 1,1; -1,1",
+        "-o",
+        "m.msh",
+    ];
+    let (code, _, err) = run(&dir, &args);
+    assert_eq!(code, 0, "{err}");
+    let m = trussmesh::io::read_mesh(&dir.join("m.msh")).expect("the .msh reads back");
+    let labels: std::collections::BTreeSet<i32> = m.subdomain.expect("subdomain labels").into_iter().collect();
+    assert_eq!(labels.len(), 3, "outside and inside each circle: {labels:?}");
+}
+
+#[test]
+fn bad_metric_and_internal_input() {
+    let a = mesh_args("sqrt(x^2+y^2)-1", &["--h0", "0.1", "--bbox", "-1,-1,1,1", "--metric", "1;0"]);
+    bad(&a, &["--metric needs three expressions", "got 2"]);
+    let a = mesh_args("sqrt(x^2+y^2)-1", &["--h0", "0.1", "--bbox", "-1,-1,1,1", "--metric", "1;2;1"]);
+    bad(&a, &["not positive definite"]);
+    let a = mesh_args("sqrt(x^2+y^2)-1", &["--h0", "0.1", "--bbox", "-1,-1,1,1", "--metric", "1;0;sqrt(-1)"]);
+    bad(&a, &["the metric returned a non-finite value"]);
+    let a = mesh_args("sqrt(x^2+y^2)-1", &["--h0", "0.1", "--bbox", "-1,-1,1,1", "--metric", "1;0;1", "--size", "1"]);
+    bad(&a, &["either --size or --metric"]);
+    let a = mesh_args("sqrt(x^2+y^2)-1", &["--h0", "0.1", "--bbox", "-1,-1,1,1", "--internal", "x+(y"]);
+    bad(&a, &["--internal", "column"]);
 }
 
 #[test]

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use trussmesh::expr::{Expr, ExprImplicit2};
 use trussmesh::geometry::project::Projection;
 use trussmesh::io::{CellType, Format, MeshData};
-use trussmesh::mesher::{mesh_2d, Options2, Report};
+use trussmesh::mesher::{mesh_2d, Metric2, Options2, Report};
 
 /// Projection of boundary nodes onto d = 0.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Deserialize)]
@@ -41,13 +41,14 @@ impl From<ProjectionArg> for Projection {
     }
 }
 
-const FLAGS: [&str; 10] = ["dim", "domain", "size", "h0", "bbox", "fix", "max_iter", "seed", "projection", "implicit"];
+const FLAGS: [&str; 12] =
+    ["dim", "domain", "size", "h0", "bbox", "fix", "max_iter", "seed", "projection", "implicit", "internal", "metric"];
 
 /// Mesh {d < 0} given by expressions in x, y (z), or by a scene file.
 #[derive(Args, Debug, Default)]
 pub struct MeshArgs {
     /// A TOML scene file with the same fields as the flags (dim, domain, size, h0, bbox, fix,
-    /// max_iter, seed, projection, implicit, output).
+    /// max_iter, seed, projection, implicit, internal, metric, output).
     #[arg(value_name = "SCENE.toml", conflicts_with_all = FLAGS)]
     pub scene: Option<PathBuf>,
     /// Dimension.
@@ -80,6 +81,14 @@ pub struct MeshArgs {
     /// The domain is a level set, not a signed distance.
     #[arg(long)]
     pub implicit: bool,
+    /// Internal boundaries: curves EXPR = 0 that no triangle crosses (seed section 3.4);
+    /// triangles are labelled by subdomain (.msh physical groups, .vtu cell data).
+    #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
+    pub internal: Option<String>,
+    /// Anisotropic metric "A;B;C": M = [[A, B], [B, C]] (seed eq. 3.19), three expressions in
+    /// x, y; replaces --size, and --h0 then only sets tolerances (about the smallest size).
+    #[arg(long, value_name = "A;B;C", allow_hyphen_values = true)]
+    pub metric: Option<String>,
     /// Output file; the extension picks the format (.json .vtu .msh .mesh .obj .stl .ply .svg .png).
     #[arg(short = 'o', long = "output", value_name = "FILE")]
     pub output: Vec<PathBuf>,
@@ -118,6 +127,8 @@ struct SceneFile {
     seed: Option<u64>,
     projection: Option<ProjectionArg>,
     implicit: Option<bool>,
+    internal: Option<String>,
+    metric: Option<String>,
     output: Option<Vec<PathBuf>>,
 }
 
@@ -134,6 +145,8 @@ pub struct Spec {
     pub seed: Option<u64>,
     pub projection: Option<ProjectionArg>,
     pub implicit: bool,
+    pub internal: Option<String>,
+    pub metric: Option<String>,
     pub outputs: Vec<PathBuf>,
 }
 
@@ -149,6 +162,8 @@ pub struct Job {
     pub seed: Option<u64>,
     pub projection: Option<ProjectionArg>,
     pub implicit: bool,
+    pub internal: Option<Expr>,
+    pub metric: Option<[Expr; 3]>,
     pub outputs: Vec<PathBuf>,
 }
 
@@ -200,6 +215,8 @@ impl MeshArgs {
                 seed: s.seed,
                 projection: s.projection,
                 implicit: s.implicit.unwrap_or(false),
+                internal: s.internal,
+                metric: s.metric,
                 outputs,
             });
         }
@@ -225,6 +242,8 @@ impl MeshArgs {
             seed: self.seed,
             projection: self.projection,
             implicit: self.implicit,
+            internal: self.internal.clone(),
+            metric: self.metric.clone(),
             outputs: self.output.clone(),
         })
     }
@@ -279,8 +298,39 @@ impl Spec {
             Some(s) => Some(parse_expr("--size", s)?),
             None => None,
         };
+        let internal = match &self.internal {
+            Some(s) => Some(parse_expr("--internal", s)?),
+            None => None,
+        };
+        let metric = match &self.metric {
+            Some(s) => {
+                let parts = split_top(s, ';');
+                if parts.len() != 3 {
+                    return Err(Failure::bad(format!(
+                        "--metric needs three expressions \"A;B;C\" for M = [[A, B], [B, C]], got {}",
+                        parts.len()
+                    )));
+                }
+                if size.is_some() {
+                    return Err(Failure::bad(
+                        "give either --size or --metric, not both (the metric replaces the size)",
+                    ));
+                }
+                Some([
+                    parse_expr("--metric A", &parts[0])?,
+                    parse_expr("--metric B", &parts[1])?,
+                    parse_expr("--metric C", &parts[2])?,
+                ])
+            }
+            None => None,
+        };
+        if dim == 3 && (internal.is_some() || metric.is_some()) {
+            return Err(Failure::bad("--internal and --metric are 2-D options (--dim 2)"));
+        }
         if dim == 2 {
-            for e in std::iter::once(&domain).chain(size.as_ref()) {
+            for e in
+                std::iter::once(&domain).chain(size.as_ref()).chain(internal.as_ref()).chain(metric.iter().flatten())
+            {
                 if e.uses_z() {
                     return Err(Failure::bad(format!("{:?} uses z but --dim is 2", e.source())));
                 }
@@ -337,6 +387,8 @@ impl Spec {
             seed: self.seed,
             projection: self.projection,
             implicit: self.implicit,
+            internal,
+            metric,
             outputs: self.outputs.clone(),
         })
     }
@@ -364,6 +416,15 @@ impl Job {
             o = o.with_size(move |p| h.eval(p.x, p.y, 0.0));
         }
         o = o.with_fixed(self.fix.iter().map(|p| [p[0], p[1]]));
+        if let Some(e) = &self.internal {
+            o = o.with_internal(ExprImplicit2 { expr: e.clone(), distance: !self.implicit });
+        }
+        if let Some([a, b, c]) = &self.metric {
+            let (a, b, c) = (a.clone(), b.clone(), c.clone());
+            o = o.with_metric(move |p| {
+                Metric2::new(a.eval(p.x, p.y, 0.0), b.eval(p.x, p.y, 0.0), c.eval(p.x, p.y, 0.0))
+            });
+        }
         if let Some(n) = self.max_iter {
             o = o.with_max_iter(n);
         }

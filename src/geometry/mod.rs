@@ -6,6 +6,7 @@ use glam::{DMat2, DMat3, DVec2, DVec3};
 
 mod csg;
 mod grid;
+pub mod levelset;
 mod primitives2;
 mod primitives3;
 pub mod project;

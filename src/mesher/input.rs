@@ -96,8 +96,15 @@ pub(crate) fn survey(domain: &dyn Implicit2, opts: &Options2) -> Result<DomainSu
             let p = lo + DVec2::new(i as f64 * dx, j as f64 * dy);
             let d = eval_d(domain, p)?;
             if d < 0.0 {
-                let h = eval_h(opts, p)?;
                 inside += 1;
+                if let Some(f) = &opts.metric {
+                    // Triangles equilateral in M have area sqrt(3)/4 / sqrt(det M).
+                    let m = super::metric::eval_metric(f, p)?;
+                    density += (m.a * m.c - m.b * m.b).sqrt() * h0 * h0;
+                    h_floor = 1.0;
+                    continue;
+                }
+                let h = eval_h(opts, p)?;
                 density += 1.0 / (h * h);
                 h_floor = h_floor.min(h);
             } else {

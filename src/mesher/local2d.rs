@@ -6,6 +6,8 @@
 //! Set `TRUSSMESH_TRACE=1` to print the state every ten iterations (a development aid).
 
 use super::input::{eval_d, eval_h_floor, survey};
+use super::internal::{self, Internal};
+use super::metric::{self, eval_metric, metric_triangle_q, Metric2, MetricFn2};
 use super::{MeshOutput2, Options2, QualityStats, Report};
 use crate::geometry::project::{project2, ProjectError, Projection};
 use crate::geometry::Implicit2;
@@ -48,6 +50,20 @@ const CARRY_BOUNDARY: f64 = 0.5;
 /// target lengths (split above, collapse below), for at most ADAPT_ROUNDS rounds.
 const ADAPT_BAND: (f64, f64) = (1.4, 0.7);
 const ADAPT_ROUNDS: usize = 8;
+/// With a metric, boundary edges whose midpoint is farther from the boundary than this many
+/// metric lengths are split (a chord must not cut into the layer of elements below it).
+const METRIC_SAGITTA: f64 = 0.5;
+/// With a metric, an edge flips only when the worse of its two triangles gains this share of
+/// metric quality.
+const METRIC_FLIP_GAIN: f64 = 0.02;
+/// With a metric, density control splits above and collapses below these metric lengths.
+/// (Measured on figure 3-6: wider bands leave the truss too coarse inside and too crowded in
+/// the layer; (1.45, 0.65) gives 96% of edges in [0.707, 1.414].)
+const METRIC_BAND: (f64, f64) = (1.45, 0.65);
+/// Starting from a previous mesh (moving meshes, remeshing), density control splits above and
+/// collapses below these target lengths: areas change, and the wide band of a fresh start
+/// would let a growing region coarsen to twice its size.
+const MOVING_BAND: (f64, f64) = (1.5, 0.5);
 /// Chunk size of the deterministic parallel loops.
 const CHUNK: usize = 4096;
 
@@ -55,6 +71,13 @@ const CHUNK: usize = 4096;
 const INTERIOR: u8 = 0;
 const BOUNDARY: u8 = 1;
 const FIXED: u8 = 2;
+const INTERNAL: u8 = 3;
+
+/// Edge kinds in the snapshot.
+const EDGE_INTERIOR: u8 = 0;
+const EDGE_BOUNDARY: u8 = 1;
+/// Between two subdomains (an internal boundary).
+const EDGE_INTERFACE: u8 = 2;
 
 struct Ctx<'a> {
     domain: &'a dyn Implicit2,
@@ -67,12 +90,93 @@ struct Ctx<'a> {
     joined: usize,
     /// The run starts from a previous mesh (moving meshes, remeshing).
     from_previous: bool,
+    /// Internal boundaries, if any.
+    internal: Option<Internal<'a>>,
+    /// The metric of the anisotropic mode, if any (replaces h).
+    metric: Option<&'a MetricFn2>,
 }
 
 impl Ctx<'_> {
+    /// The local size relative to h0 (with a metric: its smallest size, which sets the
+    /// tolerances of movement and projection).
     fn h(&self, p: DVec2) -> Result<f64, Error> {
+        if self.metric.is_some() {
+            return Ok(self.metric_at(p)?.smallest_size() / self.opts.h0);
+        }
         // Relative size normalised so that the smallest size inside is 1 (edge length h0).
         Ok(eval_h_floor(self.opts, p, self.h_floor)? / self.h_floor)
+    }
+    /// The length of the edge a-b in target lengths: |b - a| / (h0 h(midpoint)), or with a
+    /// metric its length in M (seed eq. 3.18) integrated along the edge.
+    fn ratio(&self, a: DVec2, b: DVec2) -> Result<f64, Error> {
+        match self.metric {
+            Some(_) => Ok(metric::simpson_length(
+                &self.metric_at(a)?,
+                &self.metric_at((a + b) * 0.5)?,
+                &self.metric_at(b)?,
+                b - a,
+            )),
+            None => Ok(a.distance(b) / (self.opts.h0 * self.h((a + b) * 0.5)?)),
+        }
+    }
+    /// The metric length of the offset from the midpoint of a-b to the boundary.
+    fn metric_sagitta(&self, a: DVec2, b: DVec2) -> Result<f64, Error> {
+        let mid = (a + b) * 0.5;
+        match self.project(mid)? {
+            Some(q) => Ok(self.metric_at(q)?.length(q - mid)),
+            None => Ok(0.0),
+        }
+    }
+    /// The metric at `p`, taken at the nearest boundary point when `p` is outside: like the
+    /// seed's size functions, a metric need only make sense inside the domain (figure 3-6's
+    /// radial size is negative a little outside the circle).
+    fn metric_at(&self, p: DVec2) -> Result<Metric2, Error> {
+        let f = self.metric.expect("metric mode");
+        if self.approx_dist(p)? > 0.0 {
+            if let Some(q) = self.project(p)? {
+                return eval_metric(f, q);
+            }
+        }
+        eval_metric(f, p)
+    }
+    /// Triangle quality: q, or with a metric q measured in M at the centroid.
+    fn tri_q(&self, t: [DVec2; 3]) -> f64 {
+        match self.metric {
+            Some(_) => match self.metric_at((t[0] + t[1] + t[2]) / 3.0) {
+                Ok(m) => metric_triangle_q(&m, t),
+                Err(_) => crate::quality::triangle_q(t),
+            },
+            None => crate::quality::triangle_q(t),
+        }
+    }
+    /// Lawson flips from `stack`: exact in-circle, or in the metric space of each quad.
+    fn legalize(&self, m: &mut TriMesh<DVec2>, stack: Vec<HalfEdgeId>) -> usize {
+        match self.metric {
+            None => m.legalize(stack),
+            Some(_) => {
+                let cap = 10 * m.num_edges() + 1000;
+                m.legalize_with(stack, cap, |a, b, c, d| self.metric_flip(a, b, c, d))
+            }
+        }
+    }
+    /// With a metric: whether the edge a-b (c on its left, d on its right) should flip, by
+    /// the metric quality of the two triangles with M at the quad's centroid (seed 3.5: "a
+    /// length based quality test with M averaged over the element nodes"), with hysteresis:
+    /// in a layer of metric rectangles both diagonals are equally Delaunay, and flipping back
+    /// and forth would shake the truss.
+    fn metric_flip(&self, a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> bool {
+        let Ok(m) = self.metric_at((a + b + c + d) * 0.25) else { return false };
+        let before = metric_triangle_q(&m, [a, b, c]).min(metric_triangle_q(&m, [b, a, d]));
+        let after = metric_triangle_q(&m, [c, a, d]).min(metric_triangle_q(&m, [d, b, c]));
+        after > before * (1.0 + METRIC_FLIP_GAIN)
+    }
+    /// Every edge by [`Ctx::legalize`].
+    fn make_delaunay(&self, m: &mut TriMesh<DVec2>) -> usize {
+        let stack: Vec<HalfEdgeId> = m.edge_ids().collect();
+        match self.metric {
+            None => m.make_delaunay(),
+            Some(_) => self.legalize(m, stack),
+        }
     }
     fn d(&self, p: DVec2) -> Result<f64, Error> {
         eval_d(self.domain, p)
@@ -85,6 +189,20 @@ impl Ctx<'_> {
                 Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, 0.0] })
             }
             Err(_) => Ok(None),
+        }
+    }
+    /// True when an interior node's step from `a` to `b` would cross (or land on) an internal
+    /// boundary: it is held back, so that no triangle straddles d_I = 0.
+    fn crosses_internal(&self, a: DVec2, b: DVec2) -> Result<bool, Error> {
+        let Some(di) = &self.internal else { return Ok(false) };
+        let (da, db) = (di.value(a)?, di.value(b)?);
+        Ok((da < 0.0) != (db < 0.0) || di.approx_dist(b)?.abs() < self.geps)
+    }
+    /// Projects onto d_I = 0 (`Ok(None)` without internal boundaries or without convergence).
+    fn project_internal(&self, p: DVec2) -> Result<Option<DVec2>, Error> {
+        match &self.internal {
+            Some(di) => di.project(p),
+            None => Ok(None),
         }
     }
     /// Approximate distance: d itself for distances, d / |grad d| otherwise.
@@ -146,6 +264,8 @@ pub(crate) fn run_moving(
         left: 0,
         joined: 0,
         from_previous: start.is_some(),
+        internal: opts.internal.as_deref().map(|d| Internal::new(d, opts.h0)),
+        metric: opts.metric.as_ref(),
     };
     let mut mesh = match start {
         None => initial_mesh(&mut ctx, survey.estimated_triangles)?,
@@ -168,7 +288,7 @@ pub(crate) fn run_moving(
         for _ in 0..ADAPT_ROUNDS {
             let snap = Snapshot::build(&mesh);
             let p: Vec<DVec2> = snap.ids.iter().map(|&v| mesh.pos(v)).collect();
-            let cands = density_candidates(&ctx, &snap, &p, opts.h0, ADAPT_BAND)?;
+            let cands = density_candidates(&ctx, &snap, &p, opts.h0, None, ADAPT_BAND)?;
             if cands.is_empty() || !density_control(&mut ctx, &mut mesh, cands)? {
                 break;
             }
@@ -185,12 +305,22 @@ pub(crate) fn run_moving(
             mesh.set_tag(v, tag);
         }
     }
+    if let Some(di) = &ctx.internal {
+        internal::tag_interface(&mut mesh);
+        ctx.report.internal_nodes_off = internal::nodes_off(&mesh, di, ctx.geps)?;
+    }
+    if ctx.internal.is_some() || start.is_some() {
+        internal::label_subdomains(&mut mesh);
+    }
     if let Err(e) = mesh.validate(Level::Geometry) {
         return Err(Error::Internal(format!("the finished mesh is invalid: {e}")));
     }
     let mut report = ctx.report;
     report.seconds = t0.elapsed().as_secs_f64();
     report.quality = QualityStats::of(&mesh);
+    if let Some(f) = &opts.metric {
+        report.metric = Some(super::metric::MetricStats::of(&mesh, &|p| f(p)));
+    }
     Ok(MeshOutput2 { mesh, report })
 }
 
@@ -237,8 +367,7 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
         for h in m.edge_ids() {
             let (a, b) = (m.origin(h), m.dest(h));
             let (pa, pb) = (m.pos(a), m.pos(b));
-            if pa.distance(pb) > opts.h0 * ctx.h((pa + pb) * 0.5)? * INIT_SPLIT && !edge_certainly_outside(ctx, &m, h)?
-            {
+            if ctx.ratio(pa, pb)? > INIT_SPLIT && !edge_certainly_outside(ctx, &m, h)? {
                 todo.push((a, b));
             }
         }
@@ -253,12 +382,15 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
                 }
             }
         }
-        m.make_delaunay();
+        ctx.make_delaunay(&mut m);
         if m.num_vertices() > cap {
             return Err(Error::Internal(format!(
                 "initial refinement passed {cap} vertices (estimate {estimate:.0} triangles)"
             )));
         }
+    }
+    if let Some(di) = &ctx.internal {
+        internal::align(&mut m, di, ctx.geps)?;
     }
     carve(ctx, &m, 0.0)
 }
@@ -287,7 +419,7 @@ fn edge_certainly_outside(ctx: &Ctx, m: &TriMesh<DVec2>, h: HalfEdgeId) -> Resul
 /// Keeps the triangles whose centroid is inside (d < -geps), repairs pinched vertices, and
 /// tags the boundary.
 fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<DVec2>, Error> {
-    let (points, tris, _, keys) = m.to_arrays();
+    let (points, tris, labels, keys) = m.to_arrays();
     // As the seed keeps only grid points with d < geps, keep the triangles whose three
     // vertices are inside; the pressure then pushes the outer row onto the boundary. Boundary
     // vertices of a previous mesh count as inside up to `boundary_slack` relative sizes
@@ -303,12 +435,14 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
     }
     let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
     let mut keep: Vec<[usize; 3]> = Vec::with_capacity(tris.len());
-    for t in &tris {
+    let mut keep_label: std::collections::HashMap<[usize; 3], u32> = std::collections::HashMap::new();
+    for (t, &label) in tris.iter().zip(&labels) {
         // Around fixed points (often corners on d = 0) the centroid decides, so they stay.
         let touches_fixed = t.iter().any(|&i| fixed[i]);
         let c = (points[t[0]] + points[t[1]] + points[t[2]]) / 3.0;
         if t.iter().all(|&i| inside[i]) || (touches_fixed && ctx.d(c)? < -ctx.geps) {
             keep.push(*t);
+            keep_label.insert(*t, label);
         }
     }
     // Pinched vertices (two fans) would break the manifold structure: drop the triangles of
@@ -341,6 +475,11 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
     let tri: Vec<[usize; 3]> = keep.iter().map(|t| [map[t[0]], map[t[1]], map[t[2]]]).collect();
     let (mut out, ids) =
         TriMesh::from_arrays(&pts, &tri).map_err(|e| Error::Internal(format!("carving the initial mesh: {e}")))?;
+    // from_arrays creates the faces in triangle order: labels (subdomains) carry over.
+    let faces: Vec<crate::topology::FaceId> = out.face_ids().collect();
+    for (f, t) in faces.into_iter().zip(&keep) {
+        out.set_label(f, keep_label[t]);
+    }
     for (i, &v) in ids.iter().enumerate() {
         let tag = if is_fixed[i] {
             VertexTag::Fixed
@@ -351,6 +490,7 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
         };
         out.set_tag(v, tag);
     }
+    internal::tag_interface(&mut out);
     restore_fixed(ctx, &mut out)?;
     Ok(out)
 }
@@ -514,8 +654,8 @@ struct Snapshot {
     adj: Vec<u32>,
     tris: Vec<[u32; 3]>,
     tri_faces: Vec<crate::topology::FaceId>,
-    /// Every edge: endpoints, one half-edge, and whether it lies on the boundary.
-    edges: Vec<(u32, u32, HalfEdgeId, bool)>,
+    /// Every edge: endpoints, one half-edge, and its kind (EDGE_*).
+    edges: Vec<(u32, u32, HalfEdgeId, u8)>,
     /// Flippable edges (interior, same label both sides): a, b, and the opposite c, d.
     quads: Vec<[u32; 4]>,
     quad_edges: Vec<HalfEdgeId>,
@@ -536,7 +676,8 @@ impl Snapshot {
             ids.push(v);
             kind.push(match vx.tag {
                 VertexTag::Fixed => FIXED,
-                VertexTag::Boundary | VertexTag::InternalBoundary { .. } => BOUNDARY,
+                VertexTag::Boundary => BOUNDARY,
+                VertexTag::InternalBoundary { .. } => INTERNAL,
                 VertexTag::Interior => INTERIOR,
             });
         }
@@ -552,15 +693,17 @@ impl Snapshot {
             deg[b as usize] += 1;
             match (m.face_of(h), m.face_of(t)) {
                 (Some(f1), Some(f2)) => {
-                    edges.push((a, b, h, false));
                     if m.face(f1).label == m.face(f2).label {
+                        edges.push((a, b, h, EDGE_INTERIOR));
                         let c = index[m.origin(m.prev(h))];
                         let d = index[m.origin(m.prev(t))];
                         quads.push([a, b, c, d]);
                         quad_edges.push(h);
+                    } else {
+                        edges.push((a, b, h, EDGE_INTERFACE));
                     }
                 }
-                _ => edges.push((a, b, h, true)),
+                _ => edges.push((a, b, h, EDGE_BOUNDARY)),
             }
         }
         let mut adj_start = Vec::with_capacity(n + 1);
@@ -586,8 +729,8 @@ impl Snapshot {
         }
         let mut loop_nbrs = vec![(u32::MAX, u32::MAX); ids.len()];
         let mut apexes = Vec::new();
-        for &(_, _, h, boundary) in &edges {
-            if !boundary {
+        for &(_, _, h, kind) in &edges {
+            if kind != EDGE_BOUNDARY {
                 continue;
             }
             // g: the boundary half-edge of this edge, v -> c along the loop.
@@ -606,19 +749,38 @@ impl Snapshot {
     }
 
     /// Edges that fail the exact in-circle test at positions `p`, found in parallel.
-    fn non_delaunay(&self, p: &[DVec2]) -> Vec<HalfEdgeId> {
+    /// With a metric, `ctx` decides by [`Ctx::metric_flip`] instead.
+    fn non_delaunay(&self, p: &[DVec2], ctx: Option<&Ctx>) -> Vec<HalfEdgeId> {
         self.quads
             .par_iter()
             .zip(self.quad_edges.par_iter())
             .with_min_len(CHUNK)
             .filter(|(q, _)| {
                 let [a, b, c, d] = **q;
-                crate::predicates::incircle(p[a as usize], p[b as usize], p[c as usize], p[d as usize])
-                    == Sign::Positive
+                let (pa, pb, pc, pd) = (p[a as usize], p[b as usize], p[c as usize], p[d as usize]);
+                match ctx {
+                    Some(ctx) => ctx.metric_flip(pa, pb, pc, pd),
+                    None => crate::predicates::incircle(pa, pb, pc, pd) == Sign::Positive,
+                }
             })
             .map(|(_, h)| *h)
             .collect()
     }
+}
+
+/// The edge (index into `snap.edges`) of each adjacency slot, in the order the snapshot
+/// filled them.
+fn adjacency_edges(snap: &Snapshot) -> Vec<u32> {
+    let n = snap.ids.len();
+    let mut cursor: Vec<u32> = snap.adj_start[..n].to_vec();
+    let mut out = vec![0u32; snap.adj.len()];
+    for (e, &(a, b, _, _)) in snap.edges.iter().enumerate() {
+        out[cursor[a as usize] as usize] = e as u32;
+        cursor[a as usize] += 1;
+        out[cursor[b as usize] as usize] = e as u32;
+        cursor[b as usize] += 1;
+    }
+    out
 }
 
 /// Deterministic parallel sum: fixed chunks, partial sums added in order.
@@ -645,8 +807,14 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     let mut p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
     // Positions at the last connectivity check (the seed's pold).
     let mut pold: Vec<DVec2> = p.clone();
-    let uniform = opts.size.is_none();
+    let metric = ctx.metric;
+    let uniform = opts.size.is_none() && metric.is_none();
     let mut hv: Vec<f64> = vec![1.0; p.len()];
+    // With a metric: M at each vertex, and the mean metric edge length (sqrt of the mean
+    // square) for the boundary spacing rule.
+    let mut mv: Vec<Metric2> = Vec::new();
+    let mut munit = 1.0;
+    let mut slots: Vec<u32> = Vec::new();
     let mut last_q = 0.0;
     let mut stall = 0;
     let mut rebuilds = 0usize;
@@ -662,7 +830,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
         eprintln!(
             "start: q mean {:.5}, {} vertices ({} fixed), interior valences {:?}",
-            mean_quality(&snap, &p),
+            mean_quality(ctx, &snap, &p),
             p.len(),
             snap.kind.iter().filter(|&&k| k == FIXED).count(),
             val
@@ -673,11 +841,44 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         if let Some(cb) = &opts.progress {
             cb(iter, opts.max_iter);
         }
-        if !uniform {
+        if metric.is_some() {
+            mv = p.par_iter().map(|&x| ctx.metric_at(x)).collect::<Result<Vec<Metric2>, Error>>()?;
+            hv = mv.par_iter().map(|m| m.smallest_size() / h0).collect();
+        } else if !uniform {
             hv = p.par_iter().map(|&x| ctx.h(x)).collect::<Result<Vec<f64>, Error>>()?;
         }
-        // Seed eq. 2.6: L0 = h_bar Fscale sqrt(sum L^2 / sum h_bar^2).
+        // With a metric: every edge's metric length, integrated along it (Simpson's rule
+        // with M at the endpoints and the midpoint), indexed by adjacency slot.
+        let el: Vec<f64> = if metric.is_some() {
+            if slots.len() != snap.adj.len() {
+                slots = adjacency_edges(&snap);
+            }
+            let lens = snap
+                .edges
+                .par_iter()
+                .with_min_len(CHUNK)
+                .map(|&(a, b, _, _)| {
+                    let (a, b) = (a as usize, b as usize);
+                    let mm = ctx.metric_at((p[a] + p[b]) * 0.5)?;
+                    Ok(metric::simpson_length(&mv[a], &mm, &mv[b], p[b] - p[a]))
+                })
+                .collect::<Result<Vec<f64>, Error>>()?;
+            slots.iter().map(|&e| lens[e as usize]).collect()
+        } else {
+            Vec::new()
+        };
+        // Seed eq. 2.6: L0 = h_bar Fscale sqrt(sum L^2 / sum h_bar^2); with a metric every
+        // desired length is one, so L0 = Fscale sqrt(mean of the squared metric lengths).
         let (sl, sh) = det_sum(p.len(), |i| {
+            if metric.is_some() {
+                let mut s = (0.0, 0.0);
+                for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                    let l = el[k as usize];
+                    s.0 += l * l;
+                    s.1 += 1.0;
+                }
+                return s;
+            }
             let mut s = (0.0, 0.0);
             for k in snap.adj_start[i]..snap.adj_start[i + 1] {
                 let j = snap.adj[k as usize] as usize;
@@ -688,6 +889,33 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             s
         });
         let scale = opts.fscale * (sl / sh).sqrt();
+        // With a metric: the boundary pushes back on interior nodes through a bar to their
+        // mirror image across d = 0, of rest length twice an equilateral height (sqrt 3 L0):
+        // a boundary chord alone barely resists a node approaching it along the normal, and
+        // in a boundary layer the chord's sagitta is a large part of the first row's height.
+        let wall: Vec<DVec2> = if metric.is_some() {
+            (0..p.len())
+                .into_par_iter()
+                .with_min_len(CHUNK)
+                .map(|i| {
+                    if snap.kind[i] != INTERIOR {
+                        return Ok(DVec2::ZERO);
+                    }
+                    let d = ctx.approx_dist(p[i])?;
+                    let g = ctx.domain.gradient(p[i]);
+                    let n = g.normalize_or_zero();
+                    if d >= 0.0 || n == DVec2::ZERO {
+                        return Ok(DVec2::ZERO);
+                    }
+                    let v = n * (2.0 * d); // from the mirror image to p (inward)
+                    let l = mv[i].length(v);
+                    let rest = 3f64.sqrt() * scale;
+                    Ok(if l > 0.0 && l < rest { v * ((rest - l) / l) } else { DVec2::ZERO })
+                })
+                .collect::<Result<Vec<DVec2>, Error>>()?
+        } else {
+            Vec::new()
+        };
         // Forces gathered per vertex (deterministic in parallel), forward Euler step.
         let dt = opts.deltat;
         let mut newp: Vec<DVec2> = (0..p.len())
@@ -698,6 +926,17 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                     return p[i];
                 }
                 let mut f = DVec2::ZERO;
+                if metric.is_some() {
+                    for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                        let j = snap.adj[k as usize] as usize;
+                        let d = p[i] - p[j];
+                        let l = el[k as usize];
+                        if l > 0.0 && scale > l {
+                            f += d * ((scale - l) / l);
+                        }
+                    }
+                    return p[i] + dt * (f + wall[i]);
+                }
                 for k in snap.adj_start[i]..snap.adj_start[i + 1] {
                     let j = snap.adj[k as usize] as usize;
                     let d = p[i] - p[j];
@@ -711,11 +950,18 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             })
             .collect();
         // Interior movement before projection: the seed's stop criterion.
+        let step = |i: usize, q: &[DVec2]| {
+            if metric.is_some() {
+                mv[i].length(q[i] - p[i])
+            } else {
+                q[i].distance(p[i]) / (h0 * hv[i])
+            }
+        };
         let interior_move = (0..p.len())
             .into_par_iter()
             .with_min_len(CHUNK)
             .filter(|&i| snap.kind[i] == INTERIOR)
-            .map(|i| newp[i].distance(p[i]) / (h0 * hv[i]))
+            .map(|i| step(i, &newp))
             .reduce(|| 0.0, f64::max);
         // Boundary membership follows the forces, as the seed's retriangulation lets it: a
         // boundary node whose raw step ends inside the chord of its boundary neighbours leaves
@@ -733,11 +979,15 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             .apexes
             .iter()
             .filter(|&&(v, a, b)| {
+                // Not with a metric: the mirror bar keeps nodes off the boundary there, and
+                // nodes joining a chord deep inside a thin layer only get collapsed again.
+                if metric.is_some() {
+                    return false;
+                }
                 let (pa, pb, pv) = (p[a as usize], p[b as usize], newp[v as usize]);
                 // Crossing the boundary edge; when starting from a previous mesh, also squashed
                 // flat onto it (the carried boundary rows leave such slivers behind).
-                orient2d(pa, pb, pv) != Sign::Positive
-                    || (ctx.from_previous && crate::quality::triangle_q([pa, pb, pv]) < EAR_Q)
+                orient2d(pa, pb, pv) != Sign::Positive || (ctx.from_previous && ctx.tri_q([pa, pb, pv]) < EAR_Q)
             })
             .map(|&(v, _, _)| v as usize)
             .collect();
@@ -774,14 +1024,31 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                 }
                 INTERIOR => match ctx.approx_dist(newp[i]) {
                     Ok(d) if d > -ctx.geps => Some(Ok((i, p[i]))),
-                    Ok(_) => None,
+                    Ok(_) => match ctx.crosses_internal(p[i], newp[i]) {
+                        // Held back, marked to join the internal boundary (NaN marker).
+                        Ok(true) => Some(Ok((i, DVec2::NAN))),
+                        Ok(false) => None,
+                        Err(e) => Some(Err(e)),
+                    },
+                    Err(e) => Some(Err(e)),
+                },
+                // Internal-boundary nodes back onto d_I = 0 every step: they slide along it.
+                INTERNAL => match ctx.project_internal(newp[i]) {
+                    Ok(Some(q)) => Some(Ok((i, q))),
+                    Ok(None) => Some(Ok((i, p[i]))),
                     Err(e) => Some(Err(e)),
                 },
                 _ => None,
             })
             .collect::<Result<Vec<_>, Error>>()?;
+        let mut joining_internal = Vec::new();
         for (i, q) in fixes {
-            newp[i] = q;
+            if q.is_nan() {
+                joining_internal.push(i);
+                newp[i] = p[i];
+            } else {
+                newp[i] = q;
+            }
         }
         // Step control: no triangle may invert; vertices of offending triangles step back.
         guard_inversions(&snap, &p, &mut newp);
@@ -790,8 +1057,8 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         let boundary_move = (0..p.len())
             .into_par_iter()
             .with_min_len(CHUNK)
-            .filter(|&i| snap.kind[i] == BOUNDARY)
-            .map(|i| newp[i].distance(p[i]) / (h0 * hv[i]))
+            .filter(|&i| snap.kind[i] == BOUNDARY || snap.kind[i] == INTERNAL)
+            .map(|i| step(i, &newp))
             .reduce(|| 0.0, f64::max);
         let max_move = interior_move.max(boundary_move);
         p = newp;
@@ -801,10 +1068,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         let far = (0..p.len()).into_par_iter().with_min_len(CHUNK).any(|i| p[i].distance(pold[i]) > TTOL * h0 * hv[i]);
         if far {
             pold.copy_from_slice(&p);
-            let bad = snap.non_delaunay(&p);
+            let bad = snap.non_delaunay(&p, metric.map(|_| &*ctx));
             if !bad.is_empty() {
                 write_back(m, &snap, &p);
-                let flips = m.legalize(bad);
+                let flips = ctx.legalize(m, bad);
                 ctx.report.flips += flips;
                 topo_changed |= flips > 0;
             }
@@ -814,22 +1081,39 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             write_back(m, &snap, &p);
             topo_changed |= change_membership(ctx, m, &snap, &leaving, &joining)?;
         }
+        if !joining_internal.is_empty() {
+            write_back(m, &snap, &p);
+            topo_changed |= join_internal(ctx, m, &snap, &joining_internal)?;
+        }
         // Density control and repair of bad triangles.
         if iter % DENSITY_EVERY == 0 {
-            let cands = density_candidates(ctx, &snap, &p, (sl / sh).sqrt(), (SPLIT_ABOVE, COLLAPSE_BELOW))?;
+            let mu = metric.map(|_| (sl / sh).sqrt());
+            let band = if metric.is_some() {
+                METRIC_BAND
+            } else if ctx.from_previous {
+                MOVING_BAND
+            } else {
+                (SPLIT_ABOVE, COLLAPSE_BELOW)
+            };
+            let cands = density_candidates(ctx, &snap, &p, (sl / sh).sqrt(), mu, band)?;
             if !cands.is_empty() {
                 write_back(m, &snap, &p);
                 topo_changed |= density_control(ctx, m, cands)?;
             }
             unit = (sl / sh).sqrt();
+            munit = unit;
         }
         if topo_changed {
             rebuilds += 1;
             snap = Snapshot::build(m);
+            slots.clear();
             p = snap.ids.iter().map(|&v| m.pos(v)).collect();
             pold = p.clone();
             hv = vec![1.0; p.len()];
-            if !uniform {
+            if metric.is_some() {
+                mv = p.par_iter().map(|&x| ctx.metric_at(x)).collect::<Result<Vec<Metric2>, Error>>()?;
+                hv = mv.par_iter().map(|m| m.smallest_size() / h0).collect();
+            } else if !uniform {
                 hv = p.par_iter().map(|&x| ctx.h(x)).collect::<Result<Vec<f64>, Error>>()?;
             }
         }
@@ -839,7 +1123,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             break;
         }
         if iter % DENSITY_EVERY == 0 {
-            let q = mean_quality(&snap, &p);
+            let q = mean_quality(ctx, &snap, &p);
             if std::env::var_os("TRUSSMESH_TRACE").is_some() {
                 eprintln!(
                     "iter {iter}: q mean {q:.5}, max move {max_move:.2e}, {} vertices, flips {} splits {} collapses {} left {} joined {}",
@@ -873,9 +1157,11 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     // Final cleanup: repair bad triangles, restore Delaunay.
     let snap = Snapshot::build(m);
     let p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
-    let cands = density_candidates(ctx, &snap, &p, unit, (SPLIT_ABOVE, COLLAPSE_BELOW))?;
+    let mu = metric.map(|_| munit);
+    let band = if metric.is_some() { METRIC_BAND } else { (SPLIT_ABOVE, COLLAPSE_BELOW) };
+    let cands = density_candidates(ctx, &snap, &p, unit, mu, band)?;
     density_control(ctx, m, cands)?;
-    ctx.report.flips += m.make_delaunay();
+    ctx.report.flips += ctx.make_delaunay(m);
     settle_boundary(ctx, m)?;
     ctx.report.iterations = iter;
     ctx.report.converged = converged;
@@ -918,7 +1204,7 @@ fn change_membership(
             continue;
         }
         // Not while the ear would be a sliver: the node has barely crossed the chord.
-        if crate::quality::triangle_q([pa, inner, pc]) < EAR_Q {
+        if ctx.tri_q([pa, inner, pc]) < EAR_Q {
             continue;
         }
         let old = m.pos(b);
@@ -944,7 +1230,7 @@ fn change_membership(
             if let Some(f) = m.face_of(x) {
                 let opp = m.twin(m.next(x));
                 if m.face_of(opp).is_none() {
-                    let q = m.face_quality(f);
+                    let q = ctx.tri_q(m.face_points(f));
                     if best.is_none_or(|(bq, _)| q < bq) {
                         best = Some((q, opp));
                     }
@@ -961,6 +1247,42 @@ fn change_membership(
                 changed = true;
             }
         }
+    }
+    Ok(changed)
+}
+
+/// Interior nodes that the forces push across an internal boundary join it (seed 3.4: "if a
+/// new node tries to cross the boundary it is added to the list of boundary nodes"): the
+/// worst triangle with the node as apex over an internal-boundary edge changes sides, so the
+/// curve runs through the node, which is then projected onto d_I = 0.
+fn join_internal(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, snap: &Snapshot, joining: &[usize]) -> Result<bool, Error> {
+    let mut changed = false;
+    for &i in joining {
+        let v = snap.ids[i];
+        if !m.contains_vertex(v) || m.tag(v) != VertexTag::Interior || m.is_boundary_vertex(v) {
+            continue;
+        }
+        let mut best: Option<(f64, crate::topology::FaceId, u32)> = None;
+        for x in m.outgoing(v) {
+            let Some(f) = m.face_of(x) else { continue };
+            let opp = m.twin(m.next(x));
+            if let Some(g) = m.face_of(opp) {
+                if m.face(g).label != m.face(f).label {
+                    let q = ctx.tri_q(m.face_points(f));
+                    if best.is_none_or(|(bq, _, _)| q < bq) {
+                        best = Some((q, f, m.face(g).label));
+                    }
+                }
+            }
+        }
+        let Some((_, f, label)) = best else { continue };
+        m.set_label(f, label);
+        m.set_tag(v, VertexTag::InternalBoundary { curve: 0 });
+        ctx.joined += 1;
+        if let Some(q) = ctx.project_internal(m.pos(v))? {
+            let _ = m.relocate(v, q);
+        }
+        changed = true;
     }
     Ok(changed)
 }
@@ -997,7 +1319,7 @@ fn settle_boundary(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                 }
             }
         }
-        ctx.report.flips += m.make_delaunay();
+        ctx.report.flips += ctx.make_delaunay(m);
     }
     // What could not be settled is reported, not hidden.
     ctx.report.boundary_nodes_off = m
@@ -1014,10 +1336,10 @@ fn write_back(m: &mut TriMesh<DVec2>, snap: &Snapshot, p: &[DVec2]) {
     }
 }
 
-fn mean_quality(snap: &Snapshot, p: &[DVec2]) -> f64 {
+fn mean_quality(ctx: &Ctx, snap: &Snapshot, p: &[DVec2]) -> f64 {
     let (s, _) = det_sum(snap.tris.len(), |t| {
         let [a, b, c] = snap.tris[t];
-        (crate::quality::triangle_q([p[a as usize], p[b as usize], p[c as usize]]), 0.0)
+        (ctx.tri_q([p[a as usize], p[b as usize], p[c as usize]]), 0.0)
     });
     s / snap.tris.len().max(1) as f64
 }
@@ -1027,10 +1349,13 @@ fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &TriMesh<DVe
     let old = p.to_vec();
     let mut newp = p.to_vec();
     for i in 0..p.len() {
-        if snap.kind[i] == BOUNDARY {
-            if let Some(q) = ctx.project(p[i])? {
-                newp[i] = q;
-            }
+        let q = match snap.kind[i] {
+            BOUNDARY => ctx.project(p[i])?,
+            INTERNAL => ctx.project_internal(p[i])?,
+            _ => None,
+        };
+        if let Some(q) = q {
+            newp[i] = q;
         }
     }
     guard_inversions(snap, &old, &mut newp);
@@ -1089,11 +1414,14 @@ impl Candidates {
     }
 }
 
+/// `unit` is the current mean edge length (absolute), or with a metric `metric_unit`, the
+/// mean metric edge length: boundary spacing follows it.
 fn density_candidates(
     ctx: &Ctx,
     snap: &Snapshot,
     p: &[DVec2],
     unit: f64,
+    metric_unit: Option<f64>,
     (split_above, collapse_below): (f64, f64),
 ) -> Result<Candidates, Error> {
     let h0 = ctx.opts.h0;
@@ -1102,24 +1430,40 @@ fn density_candidates(
         .edges
         .par_iter()
         .with_min_len(CHUNK)
-        .filter_map(|&(a, b, h, boundary)| {
+        .filter_map(|&(a, b, h, kind)| {
             let (pa, pb) = (p[a as usize], p[b as usize]);
-            let hm = match ctx.h((pa + pb) * 0.5) {
-                Ok(v) => v,
-                Err(e) => return Some(Err(e)),
+            let (r, rb) = if let Some(mu) = metric_unit {
+                match ctx.ratio(pa, pb) {
+                    Ok(r) => (r, r / mu),
+                    Err(e) => return Some(Err(e)),
+                }
+            } else {
+                let hm = match ctx.h((pa + pb) * 0.5) {
+                    Ok(v) => v,
+                    Err(e) => return Some(Err(e)),
+                };
+                (pa.distance(pb) / (h0 * hm), pa.distance(pb) / (unit * hm))
             };
-            let r = pa.distance(pb) / (h0 * hm);
             if r > split_above {
                 Some(Ok((r, h, 1)))
             } else if r < collapse_below {
                 Some(Ok((r, h, -1)))
-            } else if boundary {
-                // Boundary spacing follows the mesh's own current scale (the interior sets it):
-                // the carved start may have too many boundary nodes.
-                let rb = pa.distance(pb) / (unit * hm);
-                if rb > BOUNDARY_SPLIT_ABOVE {
-                    Some(Ok((rb, h, 1)))
-                } else if rb < BOUNDARY_COLLAPSE_BELOW {
+            } else if kind != EDGE_INTERIOR {
+                // Boundary (and internal-boundary) spacing follows the mesh's own current scale
+                // (the interior sets it): the carved start may have too many boundary nodes.
+                // With a metric, a boundary edge must also follow the curve to within a
+                // fraction of the metric's size across it, or the layer next to it is cut.
+                let sag = if metric_unit.is_some() && kind == EDGE_BOUNDARY {
+                    match ctx.metric_sagitta(pa, pb) {
+                        Ok(v) => v,
+                        Err(e) => return Some(Err(e)),
+                    }
+                } else {
+                    0.0
+                };
+                if rb > BOUNDARY_SPLIT_ABOVE || sag > METRIC_SAGITTA {
+                    Some(Ok((rb.max(sag / METRIC_SAGITTA), h, 1)))
+                } else if rb < BOUNDARY_COLLAPSE_BELOW && 4.0 * sag <= METRIC_SAGITTA {
                     Some(Ok((rb, h, -1)))
                 } else {
                     None
@@ -1129,13 +1473,13 @@ fn density_candidates(
             }
         })
         .collect::<Result<_, Error>>()?;
-    let bad = snap
+    let bad: Vec<(f64, crate::topology::FaceId)> = snap
         .tris
         .par_iter()
         .zip(snap.tri_faces.par_iter())
         .with_min_len(CHUNK)
         .filter_map(|(t, f)| {
-            let q = crate::quality::triangle_q([p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]]);
+            let q = ctx.tri_q([p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]]);
             (q < Q_REPAIR).then_some((q, *f))
         })
         .collect();
@@ -1156,10 +1500,13 @@ fn density_control(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, cands: Candidates) -> 
             continue;
         }
         let (a, b) = (m.pos(m.origin(h)), m.pos(m.dest(h)));
-        let boundary = m.is_boundary_edge(h);
         let mut mid = (a + b) * 0.5;
-        if boundary {
+        if m.is_boundary_edge(h) {
             if let Some(q) = ctx.project(mid)? {
+                mid = q;
+            }
+        } else if m.is_constrained_edge(h) {
+            if let Some(q) = ctx.project_internal(mid)? {
                 mid = q;
             }
         }
@@ -1176,7 +1523,7 @@ fn density_control(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, cands: Candidates) -> 
     // Collapses: short edges, and the shortest edge of bad triangles.
     bad.sort_by(|x, y| x.0.total_cmp(&y.0));
     for (_, f) in bad {
-        if !m.contains_face(f) || m.face_quality(f) >= Q_REPAIR {
+        if !m.contains_face(f) || ctx.tri_q(m.face_points(f)) >= Q_REPAIR {
             continue;
         }
         let hs = m.face_half_edges(f);
@@ -1205,7 +1552,7 @@ fn density_control(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, cands: Candidates) -> 
         }
     }
     if changed {
-        ctx.report.flips += m.make_delaunay();
+        ctx.report.flips += ctx.make_delaunay(m);
     }
     Ok(changed)
 }
@@ -1234,6 +1581,15 @@ fn try_collapse(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, h: HalfEdgeId) -> Result<
         }
         (VertexTag::Boundary, VertexTag::Fixed) if m.is_boundary_edge(h) => tries.push((h, m.pos(b))),
         (VertexTag::Fixed, VertexTag::Boundary) if m.is_boundary_edge(h) => tries.push((t, m.pos(a))),
+        // Along an internal boundary, as along the boundary.
+        (VertexTag::InternalBoundary { .. }, VertexTag::InternalBoundary { .. }) if m.is_constrained_edge(h) => {
+            if let Some(q) = ctx.project_internal((m.pos(a) + m.pos(b)) * 0.5)? {
+                tries.push((h, q));
+            }
+            tries.push((h, m.pos(b)));
+        }
+        (VertexTag::InternalBoundary { .. }, VertexTag::Fixed) if m.is_constrained_edge(h) => tries.push((h, m.pos(b))),
+        (VertexTag::Fixed, VertexTag::InternalBoundary { .. }) if m.is_constrained_edge(h) => tries.push((t, m.pos(a))),
         _ => {}
     }
     for (e, pos) in tries {
@@ -1254,5 +1610,5 @@ fn legalize_vertex(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) {
             stack.push(m.next(h));
         }
     }
-    ctx.report.flips += m.legalize(stack);
+    ctx.report.flips += ctx.legalize(m, stack);
 }

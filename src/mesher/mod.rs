@@ -4,10 +4,13 @@ pub mod background;
 mod classic2d;
 pub mod image;
 mod input;
+mod internal;
 mod local2d;
+pub mod metric;
 mod options;
 mod report;
 
+pub use metric::{Metric2, Metric3, MetricFn2, MetricGrid2, MetricStats};
 pub use options::{Options2, ProgressFn, SizeFn2, Strategy};
 pub use report::{area, boundary_deviation, size_deviation, QualityStats, Report};
 
@@ -35,6 +38,10 @@ pub struct MeshOutput2 {
 pub fn mesh_2d(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, crate::Error> {
     match opts.strategy {
         Strategy::Local => local2d::run(domain, opts),
+        Strategy::GlobalDelaunay if opts.internal.is_some() || opts.metric.is_some() => Err(crate::Error::Invalid(
+            "internal boundaries and metrics need the local strategy (the classic global-Delaunay baseline has neither)"
+                .into(),
+        )),
         Strategy::GlobalDelaunay => classic2d::run(domain, opts),
     }
 }

@@ -71,8 +71,12 @@ pub struct Report {
     /// Boundary nodes left farther than 1e-3 h0 from d = 0 (projection and merging refused;
     /// 0 in a good run).
     pub boundary_nodes_off: usize,
+    /// Internal-boundary nodes left farther than 1e-3 h0 from d_I = 0 (0 in a good run).
+    pub internal_nodes_off: usize,
     /// Quality of the result.
     pub quality: QualityStats,
+    /// With a metric: metric edge lengths and metric quality of the result.
+    pub metric: Option<super::metric::MetricStats>,
 }
 
 impl std::fmt::Display for Report {
@@ -94,6 +98,16 @@ impl std::fmt::Display for Report {
                 f,
                 "\nwarning: {} boundary nodes are off the boundary (more than 1e-3 h0)",
                 self.boundary_nodes_off
+            )?;
+        }
+        if let Some(m) = &self.metric {
+            write!(f, "\nmetric: {m}")?;
+        }
+        if self.internal_nodes_off > 0 {
+            write!(
+                f,
+                "\nwarning: {} internal-boundary nodes are off their curve (more than 1e-3 h0)",
+                self.internal_nodes_off
             )?;
         }
         Ok(())

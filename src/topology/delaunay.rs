@@ -103,6 +103,43 @@ impl TriMesh<DVec2> {
         flips
     }
 
+    /// Lawson flips by a caller's in-circle test (`illegal(a, b, c, d)`: the edge a-b with
+    /// opposite vertices c (left of a->b) and d should flip), e.g. the in-circle test of a
+    /// metric space (seed section 3.5). Such a test need not define a global triangulation, so
+    /// the flips stop after `cap`; returns the flip count.
+    pub fn legalize_with(
+        &mut self,
+        mut stack: Vec<HalfEdgeId>,
+        cap: usize,
+        illegal: impl Fn(DVec2, DVec2, DVec2, DVec2) -> bool,
+    ) -> usize {
+        let mut flips = 0;
+        while let Some(h) = stack.pop() {
+            if flips >= cap {
+                break;
+            }
+            if !self.contains_half_edge(h) {
+                continue;
+            }
+            let Some(plan) = self.interior_quad(h) else {
+                continue;
+            };
+            let (pa, pb, pc, pd) = (self.pos(plan.a), self.pos(plan.b), self.pos(plan.c), self.pos(plan.d));
+            if !illegal(pa, pb, pc, pd) {
+                continue;
+            }
+            if self.quad_flippable(&plan, pa, pb, pc, pd) {
+                self.apply_flip(plan);
+                flips += 1;
+                stack.push(plan.h_ca);
+                stack.push(plan.t_ad);
+                stack.push(plan.t_db);
+                stack.push(plan.h_bc);
+            }
+        }
+        flips
+    }
+
     /// What [`TriMesh::check_flip`] decides for an interior quad of equal labels, given its
     /// four positions: no repeated vertex and both new triangles strictly positive (the new
     /// edge cannot exist yet in a planar triangulation, see `NEEDS_DUPLICATE_EDGE_CHECK`).

@@ -1,0 +1,104 @@
+//! Anisotropic meshes (seed section 3.5, figure 3-6): the unit circle with a boundary layer
+//! of thickness about 0.01, sizes h1 = min(hmin + g (1 - r), hmax) across the boundary and
+//! h2 = hmax along it. Prints the table kept in docs/quality.md.
+
+use glam::DVec2;
+use trussmesh::geometry::Circle;
+use trussmesh::mesher::{mesh_2d, Metric2, MetricStats, Options2};
+use trussmesh::topology::Level;
+
+const HMIN: f64 = 0.01;
+const HMAX: f64 = 0.2;
+const G: f64 = 0.3;
+
+/// Seed eq. 3.20 to 3.23: radial size h1, tangential size h2.
+fn figure_3_6_metric(p: DVec2) -> Metric2 {
+    let r = p.length();
+    let h1 = (HMIN + G * (1.0 - r)).min(HMAX);
+    let dir = if r > 1e-12 { p / r } else { DVec2::X };
+    Metric2::from_sizes(dir, h1, HMAX)
+}
+
+#[test]
+fn figure_3_6_boundary_layer() {
+    let opts = Options2::uniform(HMIN, [-1.0, -1.0], [1.0, 1.0]).with_metric(figure_3_6_metric);
+    let out = mesh_2d(&Circle::new([0.0, 0.0], 1.0), &opts).expect("meshing succeeds");
+    let m = &out.mesh;
+    m.validate(Level::Geometry).expect("valid, every triangle positive (exact)");
+    let stats = MetricStats::of(m, &figure_3_6_metric);
+    // Thickness of the boundary triangles in the radial direction.
+    let mut thick: f64 = 0.0;
+    for f in m.face_ids() {
+        if m.face_half_edges(f).iter().any(|&h| m.is_boundary_edge(h)) {
+            let t = m.face_points(f).iter().map(|p| 1.0 - p.length()).fold(0.0, f64::max);
+            thick = thick.max(t);
+        }
+    }
+    println!(
+        "| figure 3-6 | nodes | triangles | edges in [0.707, 1.414] | metric length min / mean / max | metric q min / mean | boundary layer thickness | iterations |"
+    );
+    println!(
+        "| anisotropic circle | {} | {} | {:.1}% | {:.2} / {:.3} / {:.2} | {:.3} / {:.3} | {:.4} | {} |",
+        m.num_vertices(),
+        m.num_faces(),
+        100.0 * stats.in_band,
+        stats.len_min,
+        stats.len_mean,
+        stats.len_max,
+        stats.q_min,
+        stats.q_mean,
+        thick,
+        out.report.iterations
+    );
+    println!("{}", out.report);
+    println!("{stats}");
+    if let Some(dir) = std::env::var_os("TRUSSMESH_TEST_PICTURES") {
+        let data = trussmesh::io::MeshData::from_trimesh2(m);
+        let path = std::path::Path::new(&dir).join("figure_3_6.png");
+        trussmesh::io::picture::write_png(&path, &data, "figure 3-6", 1600).expect("picture written");
+        // A close-up of the boundary layer, stretched across the boundary (polar coordinates:
+        // angle along, 20 (1 - r) across) so that its rows can be seen.
+        let mut zoom = data.clone();
+        for p in &mut zoom.points {
+            let (r, a) = ((p[0] * p[0] + p[1] * p[1]).sqrt(), p[1].atan2(p[0]));
+            *p = [a, 20.0 * (1.0 - r), 0.0];
+        }
+        let keep: Vec<usize> = (0..zoom.num_cells())
+            .filter(|&c| {
+                zoom.cell(c)
+                    .iter()
+                    .all(|&i| zoom.points[i][0] > 0.2 && zoom.points[i][0] < 1.2 && zoom.points[i][1] < 3.0)
+            })
+            .collect();
+        zoom.cells = keep.iter().flat_map(|&c| data.cell(c).iter().rev().copied().collect::<Vec<_>>()).collect();
+        zoom.subdomain = None;
+        let path = std::path::Path::new(&dir).join("figure_3_6_layer.png");
+        trussmesh::io::picture::write_png(&path, &zoom, "figure 3-6 boundary layer", 1600).expect("picture written");
+    }
+    assert!((300..=800).contains(&m.num_vertices()), "about 500 nodes, got {}", m.num_vertices());
+    assert!(stats.in_band >= 0.95, "{:.1}% of edges in [1/sqrt 2, sqrt 2]", 100.0 * stats.in_band);
+    assert!(thick <= 0.015, "boundary triangles {thick} thick radially");
+}
+
+#[test]
+fn figure_3_6_is_deterministic() {
+    let opts = Options2::uniform(HMIN, [-1.0, -1.0], [1.0, 1.0]).with_metric(figure_3_6_metric);
+    let a = mesh_2d(&Circle::new([0.0, 0.0], 1.0), &opts).expect("meshing succeeds");
+    let b = mesh_2d(&Circle::new([0.0, 0.0], 1.0), &opts).expect("meshing succeeds");
+    assert_eq!(a.mesh.to_arrays(), b.mesh.to_arrays());
+}
+
+/// An isotropic metric I / h^2 is the size h: the metric mode must then give a mesh of the
+/// quality of the isotropic one, with edges of about length h.
+#[test]
+fn an_isotropic_metric_meshes_like_a_size() {
+    let h = |p: DVec2| 0.05 + 0.1 * p.length();
+    let opts = Options2::uniform(0.05, [-1.0, -1.0], [1.0, 1.0]).with_metric(move |p| Metric2::isotropic(h(p)));
+    let out = mesh_2d(&Circle::new([0.0, 0.0], 1.0), &opts).expect("meshing succeeds");
+    out.mesh.validate(Level::Geometry).expect("valid");
+    let stats = MetricStats::of(&out.mesh, &move |p| Metric2::isotropic(h(p)));
+    println!("isotropic metric: {} nodes; {stats}; {}", out.mesh.num_vertices(), out.report);
+    assert!(stats.in_band >= 0.95, "{stats}");
+    assert!(out.report.quality.q_mean >= 0.95, "q mean {}", out.report.quality.q_mean);
+    assert!(out.report.quality.q_min >= 0.5, "q min {}", out.report.quality.q_min);
+}
