@@ -6,7 +6,8 @@
 //! (Persson's thesis, chapters 2 and 3; the "seed" in comments).
 //!
 //! Layers, bottom up: [`predicates`] and [`quality`], [`topology`] (the half-edge engine),
-//! [`geometry`] (implicit functions and projections), [`mesher`] (the pipelines), [`io`] and
+//! [`geometry`] (implicit functions and projections), [`mesher`] (the pipelines), [`surface`]
+//! (surface meshes of phi = 0), [`io`] and
 //! [`expr`] (the command line's expression language).
 #![forbid(unsafe_code)]
 #![deny(rustdoc::broken_intra_doc_links)]
@@ -20,6 +21,7 @@ pub mod mesher;
 pub mod predicates;
 pub mod quality;
 pub mod size;
+pub mod surface;
 pub mod topology;
 
 #[doc(hidden)]

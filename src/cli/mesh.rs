@@ -255,7 +255,7 @@ pub fn parse_expr(what: &str, src: &str) -> Result<Expr, Failure> {
 }
 
 /// A constant expression (a number, or something like 5*pi/2).
-fn constant(what: &str, src: &str) -> Result<f64, Failure> {
+pub fn constant(what: &str, src: &str) -> Result<f64, Failure> {
     let e = parse_expr(what, src.trim())?;
     let v = e.eval(0.0, 0.0, 0.0);
     if e.eval(0.37, -1.3, 2.1).to_bits() != v.to_bits() && !v.is_nan() {
@@ -274,7 +274,7 @@ fn extension(p: &Path) -> String {
 }
 
 /// Checks an output path's extension before any work is done.
-fn check_output(p: &Path) -> Result<(), Failure> {
+pub fn check_output(p: &Path) -> Result<(), Failure> {
     if PICTURES.contains(&extension(p).as_str()) {
         return Ok(());
     }

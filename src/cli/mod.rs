@@ -5,6 +5,7 @@ mod image;
 mod mesh;
 mod remesh;
 mod stats;
+mod surface;
 
 use clap::{Parser, Subcommand};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -61,6 +62,8 @@ pub enum Command {
     Image(image::ImageArgs),
     /// Remesh a 2-D mesh file for a new size field (gradient limited on the old mesh).
     Remesh(remesh::RemeshArgs),
+    /// Mesh the closed surface phi(x, y, z) = 0 in space.
+    Surface(surface::SurfaceArgs),
 }
 
 /// Runs the command line and returns the exit code.
@@ -92,5 +95,6 @@ fn run(cli: Cli) -> Result<(), Failure> {
         Command::Gallery(a) => gallery::run(a),
         Command::Image(a) => image::run(a),
         Command::Remesh(a) => remesh::run(a),
+        Command::Surface(a) => surface::run(a),
     }
 }

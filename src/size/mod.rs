@@ -10,6 +10,7 @@ mod limit;
 mod march;
 mod medial;
 
+pub(crate) use curvature::max_principal;
 pub use curvature::{curvature_2d, curvature_3d, curvature_size_2d, curvature_size_3d};
 pub use limit::{
     gradient_limit_fast_2d, gradient_limit_fast_3d, gradient_limit_hj_2d, gradient_limit_hj_3d, gradient_limit_mesh,

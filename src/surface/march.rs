@@ -1,0 +1,150 @@
+//! The starting mesh: the zero set of phi on a background grid by marching tetrahedra (seed
+//! section 3.6.1 suggests triangulating the surface in each background cell and letting density
+//! control coarsen or refine it).
+//!
+//! Each grid cube is cut into the six Kuhn tetrahedra around its main diagonal; the cut is the
+//! same on both sides of every shared cube face, so the piecewise-linear zero set is a closed
+//! 2-manifold. Crossing points are keyed by their grid edge, so neighbouring tetrahedra weld.
+//! A node value of exactly zero counts as positive, so no crossing lies on a grid node.
+
+use crate::geometry::Implicit3;
+use crate::Error;
+use glam::DVec3;
+use std::collections::HashMap;
+
+/// The six tetrahedra of a cube (corner bits: 1 = x, 2 = y, 4 = z) around the diagonal 0-7.
+const KUHN: [[usize; 4]; 6] = [[0, 1, 3, 7], [0, 1, 5, 7], [0, 2, 3, 7], [0, 2, 6, 7], [0, 4, 5, 7], [0, 4, 6, 7]];
+
+/// Grid nodes allowed before refusing (about 1 GB of values).
+pub const MAX_GRID_NODES: u64 = 64_000_000;
+
+/// Keeps crossings away from grid nodes: the parameter t along a grid edge is clamped to
+/// [T_CLAMP, 1 - T_CLAMP], which bounds how thin a starting triangle can be. The projection
+/// moves the points onto phi = 0 afterwards.
+const T_CLAMP: f64 = 0.02;
+
+/// A triangle soup welded by grid edge: points and outward-oriented triangles.
+pub struct Marched {
+    /// Crossing points.
+    pub points: Vec<DVec3>,
+    /// Triangles, counter-clockwise seen from the side where phi > 0.
+    pub triangles: Vec<[usize; 3]>,
+}
+
+/// Samples `phi` at spacing `h` on a grid covering `bbox` padded by one cell on every side and
+/// triangulates its zero set. Errors: non-finite phi, no zero in the box, a zero set that
+/// reaches the box (the surface must be closed inside it), too many grid nodes.
+pub fn march(phi: &dyn Implicit3, bbox: [DVec3; 2], h: f64) -> Result<Marched, Error> {
+    let lo = bbox[0] - DVec3::splat(h);
+    let span = bbox[1] + DVec3::splat(h) - lo;
+    let n = [(span.x / h).ceil() as usize + 1, (span.y / h).ceil() as usize + 1, (span.z / h).ceil() as usize + 1];
+    let total = n.iter().map(|&k| k as u64).product::<u64>();
+    if total > MAX_GRID_NODES {
+        return Err(Error::TooManyElements { estimated: total, limit: MAX_GRID_NODES });
+    }
+    let idx = |i: usize, j: usize, k: usize| i + n[0] * (j + n[1] * k);
+    let at = |i: usize, j: usize, k: usize| lo + h * DVec3::new(i as f64, j as f64, k as f64);
+    let mut f = vec![0.0; total as usize];
+    let (mut neg, mut pos) = (false, false);
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                let p = at(i, j, k);
+                let v = phi.value(p);
+                if !v.is_finite() {
+                    return Err(Error::NonFinite { what: "phi", value: v, at: p.to_array() });
+                }
+                neg |= v < 0.0;
+                pos |= v >= 0.0;
+                f[idx(i, j, k)] = v;
+            }
+        }
+    }
+    if !(neg && pos) {
+        let sign = if neg { "negative" } else { "positive" };
+        return Err(Error::EmptyDomain(format!(
+            "phi is {sign} everywhere in the bounding box: no surface phi = 0 in it"
+        )));
+    }
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                let on_side = i == 0 || j == 0 || k == 0 || i + 1 == n[0] || j + 1 == n[1] || k + 1 == n[2];
+                if on_side && f[idx(i, j, k)] < 0.0 {
+                    return Err(Error::Invalid(format!(
+                        "phi < 0 at {} on the edge of the box: the surface phi = 0 is not closed inside the bounding box (enlarge it)",
+                        at(i, j, k)
+                    )));
+                }
+            }
+        }
+    }
+    let mut points: Vec<DVec3> = Vec::new();
+    let mut key_of: HashMap<(usize, usize), usize> = HashMap::new();
+    let mut triangles: Vec<[usize; 3]> = Vec::new();
+    for k in 0..n[2] - 1 {
+        for j in 0..n[1] - 1 {
+            for i in 0..n[0] - 1 {
+                let corner = |b: usize| (i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1));
+                let gid: [usize; 8] = std::array::from_fn(|b| {
+                    let (a, c, d) = corner(b);
+                    idx(a, c, d)
+                });
+                if gid.iter().all(|&g| f[g] < 0.0) || gid.iter().all(|&g| f[g] >= 0.0) {
+                    continue;
+                }
+                for tet in KUHN {
+                    let g = tet.map(|b| gid[b]);
+                    let p = tet.map(|b| {
+                        let (a, c, d) = corner(b);
+                        at(a, c, d)
+                    });
+                    let inside: Vec<usize> = (0..4).filter(|&m| f[g[m]] < 0.0).collect();
+                    let outside: Vec<usize> = (0..4).filter(|&m| f[g[m]] >= 0.0).collect();
+                    if inside.is_empty() || outside.is_empty() {
+                        continue;
+                    }
+                    let mut cross = |a: usize, b: usize| -> usize {
+                        let (ga, gb) = (g[a], g[b]);
+                        let key = (ga.min(gb), ga.max(gb));
+                        *key_of.entry(key).or_insert_with(|| {
+                            let (fa, fb) = (f[ga], f[gb]);
+                            let t = (fa / (fa - fb)).clamp(T_CLAMP, 1.0 - T_CLAMP);
+                            points.push(p[a] + t * (p[b] - p[a]));
+                            points.len() - 1
+                        })
+                    };
+                    // The gradient of the linear interpolant on the tetrahedron: the outward direction.
+                    let edges = glam::DMat3::from_cols(p[1] - p[0], p[2] - p[0], p[3] - p[0]).transpose();
+                    let df = DVec3::new(f[g[1]] - f[g[0]], f[g[2]] - f[g[0]], f[g[3]] - f[g[0]]);
+                    let grad_lin = edges.inverse() * df;
+                    let mut tris: Vec<[usize; 3]> = Vec::with_capacity(2);
+                    match inside.len() {
+                        1 | 3 => {
+                            let (lone, rest) =
+                                if inside.len() == 1 { (inside[0], &outside) } else { (outside[0], &inside) };
+                            tris.push([cross(lone, rest[0]), cross(lone, rest[1]), cross(lone, rest[2])]);
+                        }
+                        _ => {
+                            // The quad in cyclic order: in0-out0, in0-out1, in1-out1, in1-out0.
+                            let (a, b) = (inside[0], inside[1]);
+                            let (c, d) = (outside[0], outside[1]);
+                            let q = [cross(a, c), cross(a, d), cross(b, d), cross(b, c)];
+                            tris.push([q[0], q[1], q[2]]);
+                            tris.push([q[0], q[2], q[3]]);
+                        }
+                    }
+                    for mut t in tris {
+                        // Orient by the side of phi > 0: the normal points from inside to outside.
+                        let nrm = (points[t[1]] - points[t[0]]).cross(points[t[2]] - points[t[0]]);
+                        if nrm.dot(grad_lin) < 0.0 {
+                            t.swap(1, 2);
+                        }
+                        triangles.push(t);
+                    }
+                }
+            }
+        }
+    }
+    Ok(Marched { points, triangles })
+}

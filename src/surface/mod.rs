@@ -1,0 +1,383 @@
+//! Surface meshes of implicit surfaces phi(x) = 0 (seed section 3.6.1).
+//!
+//! The seed's recipe: the force iteration of the 2-D mesher with nodes moving in space and every
+//! node projected back onto phi = 0 after every step, connectivity kept good by local flips in
+//! space instead of a Delaunay triangulation. Here:
+//!
+//! 1. marching tetrahedra on a background grid gives a closed, outward-oriented start mesh
+//!    ([`march`]), welded into the half-edge engine;
+//! 2. a few remeshing passes (split long, collapse short, valence flips, tangential smoothing,
+//!    projection; the isotropic remeshing loop of Botsch and Kobbelt, 2004) bring the node
+//!    density to h(x);
+//! 3. the truss iteration: repulsive bar forces toward L0 = Fscale h(x) (seed eq. 2.6, Fscale
+//!    1.2), moves in the tangent plane, projection, quality flips, and density control with
+//!    hysteresis; it stops when the nodes stop moving or at the cap, keeping the best mesh seen.
+//!
+//! Sizes are uniform or follow the maximum principal curvature with gradient limiting (seed
+//! chapter 4).
+
+pub mod geom;
+pub mod march;
+pub mod ops;
+pub mod report;
+
+pub use geom::SizeField;
+pub use report::{SurfaceQuality, SurfaceReport};
+
+use crate::geometry::Implicit3;
+use crate::size::{auto_size_3d, SizeParams};
+use crate::topology::{TriMesh, VertexId};
+use crate::Error;
+use geom::{normal, project};
+use glam::DVec3;
+use ops::{collapse_short, flip_pass, smooth_tangential, split_long, FlipGoal, OpCounts};
+use slotmap::SecondaryMap;
+
+/// How the target edge length varies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SurfaceSize {
+    /// h0 everywhere.
+    Uniform,
+    /// h = 1 / (k |kappa_max|) clamped to [h0, hmax], then gradient limited to |grad h| <= g
+    /// (seed eq. 4.4 and Algorithm 4-2).
+    Curvature {
+        /// Elements per radian.
+        k: f64,
+        /// Gradient limit.
+        g: f64,
+        /// Largest size.
+        hmax: f64,
+    },
+}
+
+/// Options of [`mesh_implicit_surface`]. Defaults: uniform size, 1000 iterations, Fscale 1.2,
+/// time step 0.3, movement tolerance 1e-3 h.
+#[derive(Clone, Debug)]
+#[non_exhaustive]
+pub struct SurfaceOptions {
+    /// Target edge length (the smallest one with curvature sizes).
+    pub h0: f64,
+    /// A box that contains the whole surface.
+    pub bbox: [DVec3; 2],
+    /// Size rule.
+    pub size: SurfaceSize,
+    /// Iteration cap of the force loop.
+    pub max_iterations: usize,
+    /// Bar lengths are pushed toward Fscale h (seed eq. 2.6).
+    pub fscale: f64,
+    /// Time step of the forward Euler move.
+    pub dt: f64,
+    /// Stop when no node moves more than dptol h in an iteration.
+    pub dptol: f64,
+}
+
+impl SurfaceOptions {
+    /// Default iteration cap.
+    pub const DEFAULT_MAX_ITERATIONS: usize = 1000;
+    /// Default Fscale.
+    pub const DEFAULT_FSCALE: f64 = 1.2;
+    /// Default time step.
+    pub const DEFAULT_DT: f64 = 0.3;
+    /// Default movement tolerance.
+    pub const DEFAULT_DPTOL: f64 = 1e-3;
+
+    /// Uniform size `h0` for a surface inside `bbox`.
+    pub fn uniform(h0: f64, bbox: [DVec3; 2]) -> Self {
+        SurfaceOptions {
+            h0,
+            bbox,
+            size: SurfaceSize::Uniform,
+            max_iterations: Self::DEFAULT_MAX_ITERATIONS,
+            fscale: Self::DEFAULT_FSCALE,
+            dt: Self::DEFAULT_DT,
+            dptol: Self::DEFAULT_DPTOL,
+        }
+    }
+    /// Sizes from curvature (see [`SurfaceSize::Curvature`]).
+    pub fn with_curvature(mut self, k: f64, g: f64, hmax: f64) -> Self {
+        self.size = SurfaceSize::Curvature { k, g, hmax };
+        self
+    }
+    /// Sets the iteration cap.
+    pub fn with_max_iterations(mut self, n: usize) -> Self {
+        self.max_iterations = n;
+        self
+    }
+
+    fn check(&self) -> Result<(), Error> {
+        if !(self.h0 > 0.0 && self.h0.is_finite()) {
+            return Err(Error::BadSize(format!("h0 = {} must be positive and finite", self.h0)));
+        }
+        let [lo, hi] = self.bbox;
+        if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
+            return Err(Error::BadBox(format!("{lo} .. {hi}")));
+        }
+        if let SurfaceSize::Curvature { k, g, hmax } = self.size {
+            if !(k > 0.0 && k.is_finite() && g > 0.0 && g.is_finite() && hmax >= self.h0) {
+                return Err(Error::BadSize(format!(
+                    "curvature sizes k = {k}, g = {g}, hmax = {hmax} (need k > 0, g > 0, hmax >= h0)"
+                )));
+            }
+        }
+        let ok = |v: f64| v > 0.0 && v.is_finite();
+        if !(ok(self.fscale) && ok(self.dt) && ok(self.dptol)) {
+            return Err(Error::Invalid(format!(
+                "fscale {}, dt {}, dptol {} must be positive and finite",
+                self.fscale, self.dt, self.dptol
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// A surface mesh and its report.
+#[derive(Clone, Debug)]
+pub struct SurfaceOutput {
+    /// The mesh: closed, counter-clockwise seen from outside (normals along grad phi).
+    pub mesh: TriMesh<DVec3>,
+    /// The size field used.
+    pub size: SizeField,
+    /// What happened and the quality figures.
+    pub report: SurfaceReport,
+}
+
+/// Remeshing passes that bring the start mesh to the target density.
+const REMESH_PASSES: usize = 12;
+/// Coarsest start level: the start mesh is made at up to 2^MAX_LEVELS times the target size.
+const MAX_LEVELS: u32 = 3;
+/// Largest turn of the normal along one edge of the coarsest start mesh, radians.
+const MAX_TURN: f64 = 0.8;
+/// Split above 4/3 h, collapse below 4/5 h (the remeshing hysteresis of Botsch and Kobbelt).
+const REMESH_HI: f64 = 4.0 / 3.0;
+const REMESH_LO: f64 = 0.8;
+/// Density control during the force loop: wider hysteresis so nodes do not go in and out.
+const DENSITY_HI: f64 = 1.6;
+const DENSITY_LO: f64 = 0.5;
+/// Density control runs every this many force iterations, and not in the last stretch.
+const DENSITY_EVERY: usize = 20;
+/// Length-equalising sweeps after the force iteration (stopping early when nothing moves).
+const EQUALIZE_SWEEPS: usize = 30;
+/// Projection tolerance, in units of the smallest size (|phi| / |grad phi|).
+const PROJECT_TOL: f64 = 1e-9;
+
+/// Meshes the closed surface phi = 0 inside `opts.bbox` (phi < 0 inside, so normals point
+/// along grad phi).
+pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
+    let start = std::time::Instant::now();
+    opts.check()?;
+    let size = match opts.size {
+        SurfaceSize::Uniform => SizeField::Uniform(opts.h0),
+        SurfaceSize::Curvature { k, g, hmax } => {
+            // The size grid has spacing h0/2 over the padded box: refuse before allocating it.
+            let span = opts.bbox[1] - opts.bbox[0] + DVec3::splat(4.0 * opts.h0);
+            let nodes = (span / (0.5 * opts.h0)).ceil() + DVec3::ONE;
+            let estimated = nodes.x * nodes.y * nodes.z;
+            if estimated > march::MAX_GRID_NODES as f64 {
+                return Err(Error::TooManyElements { estimated: estimated as u64, limit: march::MAX_GRID_NODES });
+            }
+            let params = SizeParams { k, r: 0.0, g, hmin: opts.h0, hmax, ..SizeParams::default() };
+            let pad = DVec3::splat(2.0 * opts.h0);
+            let grid = auto_size_3d(phi, [opts.bbox[0] - pad, opts.bbox[1] + pad], 0.5 * opts.h0, &params)?;
+            SizeField::Grid(grid)
+        }
+    };
+    let hmin = size.min();
+    let tol = PROJECT_TOL * hmin;
+    // The finest marching fixes the topology; the start mesh is made at the coarsest level
+    // 2^k h with the same Euler characteristic and component count, then subdivided k times,
+    // so that the fine mesh has only the coarse mesh's irregular vertices.
+    let fine = march::march(phi, opts.bbox, hmin)?;
+    let signature = |mc: &march::Marched| {
+        let mut edges: Vec<(usize, usize)> = mc
+            .triangles
+            .iter()
+            .flat_map(|t| [0, 1, 2].map(|k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let chi = mc.points.len() as i64 - edges.len() as i64 + mc.triangles.len() as i64;
+        (chi, ops::components(mc.points.len(), &mc.triangles))
+    };
+    let want = signature(&fine);
+    // The coarse level must still follow the surface: at most MAX_TURN radians per edge.
+    let mut kmax = 0.0f64;
+    for &p in &fine.points {
+        kmax = kmax.max(geom::max_curvature(phi, project(phi, p, tol)?).abs());
+    }
+    let mut levels = 0;
+    let mut marched = fine;
+    for k in (1..=MAX_LEVELS).rev() {
+        let hk = hmin * (1u32 << k) as f64;
+        if hk * kmax > MAX_TURN {
+            continue;
+        }
+        let coarse = march::march(phi, opts.bbox, hk);
+        if let Ok(c) = coarse {
+            if signature(&c) == want {
+                levels = k;
+                marched = c;
+                break;
+            }
+        }
+    }
+    let (mut m, _) = TriMesh::from_arrays(&marched.points, &marched.triangles)
+        .map_err(|e| Error::Internal(format!("marching tetrahedra made an invalid mesh: {e}")))?;
+    let mut report = SurfaceReport::default();
+    let ids: Vec<VertexId> = m.vertex_ids().collect();
+    for v in ids {
+        let p = project(phi, m.pos(v), tol)?;
+        ops::move_if_no_fold(&mut m, phi, v, p);
+    }
+    let mut counts = OpCounts::default();
+    for level in (0..=levels).rev() {
+        let level_size = size.scaled((1u32 << level) as f64);
+        for _ in 0..REMESH_PASSES {
+            counts.splits += split_long(&mut m, phi, &level_size, REMESH_HI, tol)?;
+            counts.collapses += collapse_short(&mut m, phi, &level_size, REMESH_LO, REMESH_HI, 0.0, tol)?;
+            counts.flips += flip_pass(&mut m, phi, FlipGoal::Valence, 3);
+            smooth_tangential(&mut m, phi, 0.5, tol)?;
+            report.remesh_passes += 1;
+        }
+        if level > 0 {
+            counts.splits += ops::subdivide(&mut m, phi, tol)?;
+        }
+    }
+    counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
+
+    let mut best = (score(&m, &size), m.clone(), 0usize);
+    for it in 1..=opts.max_iterations {
+        report.iterations = it;
+        let moved = force_step(&mut m, phi, &size, opts, tol, &mut report.undone_moves)?;
+        counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 5);
+        let late = it + 3 * DENSITY_EVERY > opts.max_iterations;
+        if it % DENSITY_EVERY == 0 && !late {
+            let s = split_long(&mut m, phi, &size, DENSITY_HI, tol)?;
+            let c = collapse_short(&mut m, phi, &size, DENSITY_LO, DENSITY_HI, 0.3, tol)?;
+            counts.splits += s;
+            counts.collapses += c;
+            if s + c > 0 {
+                counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
+            }
+        }
+        let sc = score(&m, &size);
+        if sc > best.0 {
+            best = (sc, m.clone(), it);
+        }
+        if moved < opts.dptol && it > DENSITY_EVERY {
+            report.converged = true;
+            break;
+        }
+    }
+    // A converged run keeps its last mesh; a run stopped by the cap keeps the best one seen.
+    let (mut m, kept) = if report.converged { (m, report.iterations) } else { (best.1, best.2) };
+    // The truss equilibrium balances forces; a few sweeps then even out the lengths themselves
+    // (on the unit sphere at h = 0.1: size deviation 5.6% -> 5.3%, mean q 0.986 -> 0.990).
+    for _ in 0..EQUALIZE_SWEEPS {
+        report.equalize_sweeps += 1;
+        let scale = mean_ratio(&m, &size);
+        if ops::equalize_lengths(&mut m, phi, &size, scale, tol)? < opts.dptol {
+            break;
+        }
+    }
+    // Final projection to the tight tolerance (the loop already projects every step).
+    let ids: Vec<VertexId> = m.vertex_ids().collect();
+    for v in ids {
+        let p = project(phi, m.pos(v), 1e-3 * tol)?;
+        m.set_pos_unchecked(v, p);
+    }
+    report.kept_iteration = kept;
+    report.ops = counts;
+    report.quality = SurfaceQuality::measure(&m, phi, &size);
+    report.seconds = start.elapsed().as_secs_f64();
+    Ok(SurfaceOutput { mesh: m, size, report })
+}
+
+/// sum(L h) / sum(h^2): the scale that best fits the edge lengths L to the sizes h.
+fn mean_ratio(m: &TriMesh<DVec3>, size: &SizeField) -> f64 {
+    let (mut lh, mut hh) = (0.0, 0.0);
+    for e in m.edge_ids() {
+        let (p, q) = (m.pos(m.origin(e)), m.pos(m.dest(e)));
+        let h = size.at(0.5 * (p + q));
+        lh += p.distance(q) * h;
+        hh += h * h;
+    }
+    lh / hh
+}
+
+/// The figure that picks the kept mesh: mean plus worst quality, minus the size deviation
+/// (std / mean of edge length over h).
+fn score(m: &TriMesh<DVec3>, size: &SizeField) -> f64 {
+    let (mut min_q, mut sum) = (1.0f64, 0.0);
+    for f in m.face_ids() {
+        let q = m.face_quality(f);
+        min_q = min_q.min(q);
+        sum += q;
+    }
+    let (mut n, mut s1, mut s2) = (0.0, 0.0, 0.0);
+    for e in m.edge_ids() {
+        let (p, q) = (m.pos(m.origin(e)), m.pos(m.dest(e)));
+        let r = p.distance(q) / size.at(0.5 * (p + q));
+        n += 1.0;
+        s1 += r;
+        s2 += r * r;
+    }
+    let mean = s1 / n;
+    let dev = ((s2 / n - mean * mean).max(0.0)).sqrt() / mean;
+    min_q + sum / m.num_faces().max(1) as f64 - dev
+}
+
+/// One truss step (seed eq. 2.6 forces, forward Euler in the tangent plane, projection).
+/// Returns the largest node movement relative to h.
+fn force_step(
+    m: &mut TriMesh<DVec3>,
+    phi: &dyn Implicit3,
+    size: &SizeField,
+    opts: &SurfaceOptions,
+    tol: f64,
+    undone: &mut usize,
+) -> Result<f64, Error> {
+    let ids: Vec<VertexId> = m.vertex_ids().collect();
+    let mut index: SecondaryMap<VertexId, u32> = SecondaryMap::with_capacity(ids.len());
+    for (i, &v) in ids.iter().enumerate() {
+        index.insert(v, i as u32);
+    }
+    let pos: Vec<DVec3> = ids.iter().map(|&v| m.pos(v)).collect();
+    let bars: Vec<[u32; 2]> = m.edge_ids().map(|h| [index[m.origin(h)], index[m.dest(h)]]).collect();
+    let mut len = Vec::with_capacity(bars.len());
+    let mut hb = Vec::with_capacity(bars.len());
+    let (mut sl, mut sh) = (0.0, 0.0);
+    for &[a, b] in &bars {
+        let (pa, pb) = (pos[a as usize], pos[b as usize]);
+        let l = pa.distance(pb);
+        let h = size.at(0.5 * (pa + pb));
+        sl += l * l;
+        sh += h * h;
+        len.push(l);
+        hb.push(h);
+    }
+    let scale = opts.fscale * (sl / sh).sqrt();
+    let mut force = vec![DVec3::ZERO; ids.len()];
+    for (k, &[a, b]) in bars.iter().enumerate() {
+        let l0 = hb[k] * scale;
+        let l = len[k];
+        if l <= 0.0 || l0 <= l {
+            continue;
+        }
+        let f = (l0 - l) / l * (pos[a as usize] - pos[b as usize]);
+        force[a as usize] += f;
+        force[b as usize] -= f;
+    }
+    let mut moved = 0.0f64;
+    for (i, &v) in ids.iter().enumerate() {
+        let p = pos[i];
+        let n = normal(phi, p);
+        let f = force[i] - force[i].dot(n) * n;
+        let q = project(phi, p + opts.dt * f, tol)?;
+        if ops::move_if_no_fold(m, phi, v, q) {
+            moved = moved.max(q.distance(p) / size.at(p));
+        } else {
+            *undone += 1;
+        }
+    }
+    Ok(moved)
+}

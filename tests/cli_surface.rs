@@ -1,0 +1,107 @@
+//! `trussmesh surface`: files written and readable, a shaded picture, and every bad input exits 2
+//! with a message.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn tmp(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli_surface").join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs the binary in `dir`: (exit code, stdout, stderr).
+fn run(dir: &Path, args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_trussmesh")).args(args).current_dir(dir).output().unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+const SPHERE: &str = "sqrt(x^2+y^2+z^2)-1";
+const BOX: &str = "-1.2,-1.2,-1.2,1.2,1.2,1.2";
+
+#[test]
+fn sphere_to_every_format() {
+    let d = tmp("formats");
+    let files = ["s.obj", "s.stl", "s.ply", "s.vtu", "s.json", "s.png", "s.svg"];
+    let mut args = vec!["surface", "--phi", SPHERE, "--bbox", BOX, "--h0", "0.25"];
+    for f in &files {
+        args.extend(["-o", f]);
+    }
+    let (code, out, err) = run(&d, &args);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("Euler characteristic 2 (closed manifold, 0 inward faces)"), "{out}");
+    for f in &files[..5] {
+        let m = trussmesh::io::read_mesh(&d.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        assert_eq!(m.dim, 3, "{f}");
+        let nv = m.points.len() as i64;
+        let nf = m.num_cells() as i64;
+        // A closed triangulated sphere: E = 3F/2 and V - E + F = 2.
+        assert_eq!(nv - 3 * nf / 2 + nf, 2, "{f}: {nv} points, {nf} triangles");
+        for p in &m.points {
+            let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+            assert!((r - 1.0).abs() < 1e-6, "{f}: point at radius {r}");
+        }
+    }
+    let png = std::fs::read(d.join("s.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    assert!(std::fs::read_to_string(d.join("s.svg")).unwrap().contains("<polygon"));
+}
+
+#[test]
+fn curvature_sizes_from_the_command_line() {
+    let d = tmp("curvature");
+    let torus = "sqrt((sqrt(x^2+y^2)-1)^2+z^2)-0.3";
+    let (code, out, err) = run(
+        &d,
+        &[
+            "surface",
+            "--phi",
+            torus,
+            "--bbox",
+            "-1.5,-1.5,-0.5,1.5,1.5,0.5",
+            "--h0",
+            "0.08",
+            "--curvature",
+            "3",
+            "--hmax",
+            "0.2",
+            "-o",
+            "t.obj",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("Euler characteristic 0 (closed manifold, 0 inward faces)"), "{out}");
+}
+
+#[test]
+fn bad_input_exits_2() {
+    let d = tmp("bad");
+    let cases: [(&[&str], &str); 7] = [
+        (&["--phi", "sqrt(x^2+y^2+z^2)+1", "--bbox", BOX, "--h0", "0.2"], "empty domain"),
+        (&["--phi", "sqrt(x^2+y^2+z^2-1)", "--bbox", BOX, "--h0", "0.2"], "non-finite"),
+        (&["--phi", SPHERE, "--bbox", BOX, "--h0", "0"], "h0 = 0 must be positive"),
+        (&["--phi", SPHERE, "--bbox", BOX, "--h0", "-0.1"], "must be positive"),
+        (
+            &["--phi", SPHERE, "--bbox", "-0.5,-0.5,-0.5,0.5,0.5,0.5", "--h0", "0.1"],
+            "not closed inside the bounding box",
+        ),
+        (&["--phi", SPHERE, "--bbox", "-1,-1,1,1,1", "--h0", "0.1"], "needs 6 numbers"),
+        (&["--phi", "sqrt(x^2+", "--bbox", BOX, "--h0", "0.1"], "bad phi expression"),
+    ];
+    for (args, msg) in cases {
+        let mut a = vec!["surface"];
+        a.extend_from_slice(args);
+        a.extend(["-o", "x.obj"]);
+        let (code, _, err) = run(&d, &a);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(msg), "{args:?}: expected {msg:?} in {err}");
+    }
+    let (code, _, err) = run(&d, &["surface", "--phi", SPHERE, "--bbox", BOX, "--h0", "0.1", "-o", "x.xyz"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("unknown output extension"), "{err}");
+}
