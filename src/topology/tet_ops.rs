@@ -692,6 +692,69 @@ impl TetMesh {
         Ok(b)
     }
 
+    // ===================== boundary tet removal =====================
+
+    /// Checks deleting tet `t` from the boundary so that the boundary stays a 2-manifold: with
+    /// one boundary face its opposite vertex must be interior (it joins the boundary); with two
+    /// boundary faces the edge they do not share must not touch the boundary. Returns the
+    /// number of boundary faces.
+    pub fn check_remove_boundary_tet(&self, t: TetId) -> Result<usize, Refusal> {
+        let tx = self.live_tet(t)?;
+        let nb = tx.adj.iter().filter(|a| a.is_none()).count();
+        match nb {
+            1 => {
+                let i = tx.adj.iter().position(|a| a.is_none()).expect("one boundary face");
+                if self.is_boundary_vertex(tx.v[i]) {
+                    return Err(Refusal::Protected(VertexTag::Boundary));
+                }
+            }
+            2 => {
+                // Faces opposite c and d are boundary: the edge c-d must be interior.
+                let mut cd = [0usize; 2];
+                let mut k = 0;
+                for i in 0..4 {
+                    if tx.adj[i].is_none() {
+                        cd[k] = i;
+                        k += 1;
+                    }
+                }
+                if !self.edge_shell(t, cd[0], cd[1]).closed {
+                    return Err(Refusal::BoundaryEdge);
+                }
+            }
+            _ => return Err(Refusal::TooSmall),
+        }
+        if tx.adj.iter().any(|a| a.is_some_and(|(u, _)| self.tets[u].label != tx.label)) {
+            return Err(Refusal::Constrained);
+        }
+        Ok(nb)
+    }
+
+    /// Deletes tet `t` from the boundary (see [`TetMesh::check_remove_boundary_tet`]); a vertex
+    /// that joins the boundary is tagged `Boundary` unless it is `Fixed`.
+    pub fn remove_boundary_tet(&mut self, t: TetId) -> Result<(), Refusal> {
+        self.check_remove_boundary_tet(t)?;
+        let tx = self.tets[t];
+        self.revision = self.revision.wrapping_add(1);
+        for i in 0..4 {
+            if let Some((u, j)) = tx.adj[i] {
+                self.tets[u].adj[j as usize] = None;
+                for w in self.tets[u].v {
+                    if tx.v.contains(&w) {
+                        self.vertices[w].tet = u;
+                    }
+                }
+            }
+        }
+        self.tets.remove(t);
+        for w in tx.v {
+            if self.vertices[w].tag == VertexTag::Interior {
+                self.vertices[w].tag = VertexTag::Boundary;
+            }
+        }
+        Ok(())
+    }
+
     // ===================== relocation =====================
 
     /// Checks moving `v` to `p`: fixed vertices never move; every tet around `v` stays positive.
