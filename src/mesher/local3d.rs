@@ -38,6 +38,9 @@ const LATTICE: f64 = 1.1;
 const SURFACE_GAP: f64 = 0.9;
 /// Lattice points deeper than this many lattice sides (times h) are interior start points.
 const INTERIOR_DEPTH: f64 = 0.45;
+/// Tets below this dihedral quality get quality-driven swaps every SWAP_EVERY iterations.
+const SWAP_TQ: f64 = 0.35;
+const SWAP_EVERY: usize = 1;
 /// Tets whose centroid is within GEPS h0 h of d = 0 are dropped from the boundary (seed: 0.1).
 const GEPS: f64 = 0.1;
 /// Nodes moved farther than this many local sizes since their last check get their faces
@@ -695,7 +698,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             .with_min_len(CHUNK)
             .map(|i| p[i].distance(pold[i]) > TTOL * h0 * hv[i])
             .collect();
-        if far.iter().any(|&x| x) {
+        if far.iter().any(|&x| x) && std::env::var_os("TM_NOLAWSON").is_none() {
             let mut stack: Vec<(TetId, usize)> = Vec::new();
             for (k, t) in snap.tets.iter().enumerate() {
                 if t.iter().any(|&i| far[i as usize]) {
@@ -713,6 +716,26 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             let flips = m.lawson(stack);
             ctx.report.flips += flips;
             topo_changed |= flips > 0;
+        }
+        // Quality-driven swaps: the tets below SWAP_TQ, worst first, get the best edge removal
+        // or 2-3 flip that raises the local worst quality (Lawson alone stalls in 3-D).
+        if iter % SWAP_EVERY == 0 {
+            let mut bad: Vec<(f64, usize)> = (0..snap.tets.len())
+                .into_par_iter()
+                .with_min_len(CHUNK)
+                .map(|k| (tq(snap.tets[k].map(|i| p[i as usize])), k))
+                .filter(|x| x.0 < SWAP_TQ)
+                .collect();
+            if !bad.is_empty() {
+                bad.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+                write_back(m, &snap, &p);
+                for (_, k) in bad {
+                    let t = snap.tet_ids[k];
+                    if m.contains_tet(t) && try_swaps(ctx, m, t)? {
+                        topo_changed = true;
+                    }
+                }
+            }
         }
         // Tets squashed against the boundary (centroid within geps of d = 0) leave the mesh, as
         // the seed's retriangulation drops them: their interior apex joins the boundary.
