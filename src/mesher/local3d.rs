@@ -57,6 +57,8 @@ const QUALITY_PLATEAU: f64 = 1e-5;
 const PLATEAU_WINDOWS: usize = 4;
 /// Tets below this dihedral quality ([`tq`]) are attacked by the sliver removal.
 const TQ_TARGET: f64 = 0.5;
+/// Smoothing and perturbation may lower the star's mean radius ratio by at most this.
+const RR_SLACK: f64 = 0.01;
 /// Dihedral angle of the regular tetrahedron, degrees.
 const REGULAR_DIHEDRAL: f64 = 70.528_779_365_509_3;
 /// Chunk size of the deterministic parallel loops.
@@ -74,12 +76,20 @@ pub(crate) fn tq(p: [DVec3; 4]) -> f64 {
     if v <= 0.0 || !v.is_finite() {
         return -1.0;
     }
-    let a = crate::quality::tet_dihedral_angles_deg(p);
-    let (mut lo, mut hi) = (180.0f64, 0.0f64);
-    for x in a {
-        lo = lo.min(x);
-        hi = hi.max(x);
+    // Outward face normals; the dihedral at the edge shared by faces i and j has cosine
+    // -n_i . n_j. Only the extreme cosines need an acos (this runs on every tet every step).
+    let n = |a: usize, b: usize, c: usize| (p[b] - p[a]).cross(p[c] - p[a]).normalize_or_zero();
+    let f = [n(1, 2, 3), n(0, 3, 2), n(0, 1, 3), n(0, 2, 1)];
+    let (mut cmax, mut cmin) = (-1.0f64, 1.0f64);
+    for i in 0..4 {
+        for j in i + 1..4 {
+            let c = -f[i].dot(f[j]);
+            cmax = cmax.max(c);
+            cmin = cmin.min(c);
+        }
     }
+    let lo = cmax.clamp(-1.0, 1.0).acos().to_degrees();
+    let hi = cmin.clamp(-1.0, 1.0).acos().to_degrees();
     (lo / REGULAR_DIHEDRAL).min((180.0 - hi) / (180.0 - REGULAR_DIHEDRAL))
 }
 
@@ -297,6 +307,19 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
         }
         if changed == 0 {
             break;
+        }
+    }
+    if ctx.trace {
+        let mut w: Vec<(f64, TetId)> = mesh.tet_ids().map(|t| (tq(mesh.tet_points(t)), t)).collect();
+        w.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for &(q, t) in w.iter().take(6) {
+            let tx = mesh.tet(t);
+            let nb = tx.adj.iter().filter(|a| a.is_none()).count();
+            let tags: Vec<String> =
+                tx.v.iter()
+                    .map(|&v| format!("{:?}@{:.3}", mesh.tag(v), ctx.approx_dist(mesh.pos(v)).unwrap_or(0.0)))
+                    .collect();
+            eprintln!("worst tq {q:.3}: {nb} boundary faces, {:?} {:?}", tags, mesh.tet_points(t)[0]);
         }
     }
     ctx.report.boundary_nodes_off = count_off(&ctx, &mesh)?;
@@ -525,27 +548,52 @@ impl Snapshot {
         }
         let mut tets = Vec::with_capacity(m.num_tets());
         let mut tet_ids = Vec::with_capacity(m.num_tets());
-        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(12 * m.num_tets());
         for t in m.tet_ids() {
-            let v = m.tet(t).v.map(|x| index[x]);
-            tets.push(v);
+            tets.push(m.tet(t).v.map(|x| index[x]));
             tet_ids.push(t);
-            for [i, j] in EDGE_VERTICES {
-                pairs.push((v[i], v[j]));
-                pairs.push((v[j], v[i]));
+        }
+        // Vertex -> tets by counting, then each vertex's neighbours sorted locally (in
+        // parallel, deterministic): no global sort of the 12 T directed edges.
+        let n = ids.len();
+        let mut start = vec![0u32; n + 1];
+        for t in &tets {
+            for &i in t {
+                start[i as usize + 1] += 1;
             }
         }
-        pairs.par_sort_unstable();
-        pairs.dedup();
-        let n = ids.len();
-        let mut adj_start = vec![0u32; n + 1];
-        for &(a, _) in &pairs {
-            adj_start[a as usize + 1] += 1;
-        }
         for i in 0..n {
-            adj_start[i + 1] += adj_start[i];
+            start[i + 1] += start[i];
         }
-        let adj = pairs.into_iter().map(|p| p.1).collect();
+        let mut fill = start.clone();
+        let mut inc = vec![0u32; 4 * tets.len()];
+        for (k, t) in tets.iter().enumerate() {
+            for &i in t {
+                inc[fill[i as usize] as usize] = k as u32;
+                fill[i as usize] += 1;
+            }
+        }
+        let lists: Vec<SmallVec<[u32; 24]>> = (0..n)
+            .into_par_iter()
+            .with_min_len(256)
+            .map(|i| {
+                let mut l: SmallVec<[u32; 24]> = SmallVec::new();
+                for &k in &inc[start[i] as usize..start[i + 1] as usize] {
+                    for &j in &tets[k as usize] {
+                        if j as usize != i {
+                            l.push(j);
+                        }
+                    }
+                }
+                l.sort_unstable();
+                l.dedup();
+                l
+            })
+            .collect();
+        let mut adj_start = vec![0u32; n + 1];
+        for i in 0..n {
+            adj_start[i + 1] = adj_start[i] + lists[i].len() as u32;
+        }
+        let adj = lists.into_iter().flatten().collect();
         Snapshot { ids, kind, tets, tet_ids, adj_start, adj }
     }
 }
@@ -568,8 +616,11 @@ fn det_sum(n: usize, f: impl Fn(usize) -> (f64, f64) + Sync) -> (f64, f64) {
 }
 
 fn write_back(m: &mut TetMesh, snap: &Snapshot, p: &[DVec3]) {
+    // Vertices removed since the snapshot (a tent dropped from the boundary) are skipped.
     for (k, &v) in snap.ids.iter().enumerate() {
-        m.set_pos_unchecked(v, p[k]);
+        if m.contains_vertex(v) {
+            m.set_pos_unchecked(v, p[k]);
+        }
     }
 }
 
@@ -1108,7 +1159,7 @@ fn settle_boundary(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
     for v in vs {
         let p = m.pos(v);
         if let Some(q) = ctx.project(p)? {
-            if q != p && m.relocate(v, q).is_err() {
+            if q != p && m.relocate(v, q).is_err() && !merge_into_boundary_neighbour(ctx, m, v)? {
                 // Part of the way at least.
                 for f in [0.5, 0.75, 0.9] {
                     if m.relocate(v, p.lerp(q, f)).is_ok() {
@@ -1119,6 +1170,31 @@ fn settle_boundary(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         }
     }
     Ok(())
+}
+
+/// A boundary node that cannot reach d = 0 is collapsed along a boundary edge into the
+/// neighbour that leaves the best worst radius ratio (seed: such nodes are crowded ones).
+fn merge_into_boundary_neighbour(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, Error> {
+    let mut best: Option<(f64, TetPatch)> = None;
+    for w in m.vertex_neighbours(v) {
+        if !matches!(m.tag(w), VertexTag::Boundary | VertexTag::Fixed) {
+            continue;
+        }
+        let Some(t) = m.find_edge(v, w) else { continue };
+        let e = edge_index(m, t, v, w);
+        let reverse = m.tet(t).v[EDGE_VERTICES[e][0]] != v;
+        if let Ok(plan) = m.check_collapse(t, e, reverse, m.pos(w)) {
+            if plan.min_quality > 0.05 && best.as_ref().map_or(true, |b| plan.min_quality > b.0) {
+                best = Some((plan.min_quality, plan));
+            }
+        }
+    }
+    if let Some((_, plan)) = best {
+        m.apply_patch(plan);
+        ctx.report.collapses += 1;
+        return Ok(true);
+    }
+    Ok(false)
 }
 
 fn count_off(ctx: &Ctx, m: &TetMesh) -> Result<usize, Error> {
@@ -1175,6 +1251,16 @@ fn improve(ctx: &mut Ctx, m: &mut TetMesh, round: usize) -> Result<usize, Error>
 /// The best of: removing one of the six edges of `t` (interior or boundary), or a 2-3 flip of
 /// one of its faces, if it raises the worst tq of the tets it replaces.
 fn try_swaps(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> Result<bool, Error> {
+    // A tent or cap on the boundary (two or three boundary faces, centroid near d = 0) goes.
+    let nb = m.tet(t).adj.iter().filter(|a| a.is_none()).count();
+    if nb >= 2 {
+        let p = m.tet_points(t);
+        let c = (p[0] + p[1] + p[2] + p[3]) / 4.0;
+        if ctx.approx_dist(c)? > -GEPS * ctx.opts.h0 * ctx.h(c)? && m.remove_boundary_tet(t).is_ok() {
+            ctx.report.removed += 1;
+            return Ok(true);
+        }
+    }
     let mut best: Option<(f64, TetPatch)> = None;
     for [i, j] in EDGE_VERTICES {
         let s = m.edge_shell(t, i, j);
@@ -1292,11 +1378,25 @@ fn smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, E
             break;
         }
     }
-    if fx > f0 + 1e-9 && m.relocate(v, x).is_ok() {
+    if fx > f0 + 1e-9 && star_rr(&star, x) > star_rr(&star, x0) - RR_SLACK && m.relocate(v, x).is_ok() {
         ctx.report.smoothings += 1;
         return Ok(true);
     }
     Ok(false)
+}
+
+/// Mean radius ratio of the star with `v` at `x`: a move for the worst tet may not cost the
+/// others more than RR_SLACK of it.
+fn star_rr(star: &[([DVec3; 4], usize)], x: DVec3) -> f64 {
+    let s: f64 = star
+        .iter()
+        .map(|(p, k)| {
+            let mut p = *p;
+            p[*k] = x;
+            crate::quality::tet_radius_ratio(p)
+        })
+        .sum();
+    s / star.len().max(1) as f64
 }
 
 /// Random moves of `v` within a tenth of its edge length (tangential on the boundary), the
@@ -1327,7 +1427,7 @@ fn perturb_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, 
             best = (fy, y);
         }
     }
-    if best.0 > f0 + 1e-9 && m.relocate(v, best.1).is_ok() {
+    if best.0 > f0 + 1e-9 && star_rr(&star, best.1) > star_rr(&star, x0) - RR_SLACK && m.relocate(v, best.1).is_ok() {
         ctx.report.smoothings += 1;
         return Ok(true);
     }

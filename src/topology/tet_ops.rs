@@ -696,7 +696,8 @@ impl TetMesh {
 
     /// Checks deleting tet `t` from the boundary so that the boundary stays a 2-manifold: with
     /// one boundary face its opposite vertex must be interior (it joins the boundary); with two
-    /// boundary faces the edge they do not share must not touch the boundary. Returns the
+    /// boundary faces the edge they do not share must not touch the boundary; with three, the
+    /// vertex they share must lie in `t` only and not be fixed (it goes with `t`). Returns the
     /// number of boundary faces.
     pub fn check_remove_boundary_tet(&self, t: TetId) -> Result<usize, Refusal> {
         let tx = self.live_tet(t)?;
@@ -722,6 +723,16 @@ impl TetMesh {
                     return Err(Refusal::BoundaryEdge);
                 }
             }
+            3 => {
+                let i = tx.adj.iter().position(|a| a.is_some()).expect("one interior face");
+                let v = tx.v[i];
+                if self.vertices[v].tag == VertexTag::Fixed {
+                    return Err(Refusal::Protected(VertexTag::Fixed));
+                }
+                if self.vertex_tets(v).len() != 1 {
+                    return Err(Refusal::LinkCondition);
+                }
+            }
             _ => return Err(Refusal::TooSmall),
         }
         if tx.adj.iter().any(|a| a.is_some_and(|(u, _)| self.tets[u].label != tx.label)) {
@@ -733,8 +744,20 @@ impl TetMesh {
     /// Deletes tet `t` from the boundary (see [`TetMesh::check_remove_boundary_tet`]); a vertex
     /// that joins the boundary is tagged `Boundary` unless it is `Fixed`.
     pub fn remove_boundary_tet(&mut self, t: TetId) -> Result<(), Refusal> {
-        self.check_remove_boundary_tet(t)?;
+        let nb = self.check_remove_boundary_tet(t)?;
         let tx = self.tets[t];
+        if nb == 3 {
+            let i = tx.adj.iter().position(|a| a.is_some()).expect("one interior face");
+            let (u, j) = tx.adj[i].expect("interior face");
+            self.revision = self.revision.wrapping_add(1);
+            self.tets[u].adj[j as usize] = None;
+            for w in self.tets[u].v {
+                self.vertices[w].tet = u;
+            }
+            self.tets.remove(t);
+            self.vertices.remove(tx.v[i]);
+            return Ok(());
+        }
         self.revision = self.revision.wrapping_add(1);
         for i in 0..4 {
             if let Some((u, j)) = tx.adj[i] {
