@@ -77,9 +77,12 @@ fn check_quality(r: &Row) {
     assert!(q.dihedral_max <= 137.0, "maximum dihedral {:.2} <= 137", q.dihedral_max);
 }
 
-fn check_mean_and_size(r: &Row) {
+fn check_mean(r: &Row) {
     let q = &r.out.report.quality;
     assert!(q.rr_mean >= 0.88, "mean radius ratio {:.4} >= 0.88", q.rr_mean);
+}
+
+fn check_size(r: &Row) {
     assert!(r.size_dev <= 0.09, "size deviation {:.2}% <= 9%", 100.0 * r.size_dev);
 }
 
@@ -89,7 +92,8 @@ fn unit_ball_h015() {
     let r = measure("unit ball, h0 = 0.15", &d, &o, 4.0 / 3.0 * PI);
     check_basic(&r);
     check_quality(&r);
-    check_mean_and_size(&r);
+    check_mean(&r);
+    check_size(&r);
 }
 
 #[test]
@@ -98,14 +102,15 @@ fn cylinder_minus_ball_graded() {
     let r = measure("cylinder minus ball, h = min(4|x| - 1, 2), h0 = 0.1", &d, &o, v);
     check_basic(&r);
     check_quality(&r);
+    check_size(&r);
 }
 
 #[test]
-#[ignore = "measured: mean radius ratio 0.854 (target 0.88), size deviation 16.7% (target 9%)"]
-fn cylinder_minus_ball_mean_quality_and_size() {
+#[ignore = "measured: mean radius ratio 0.865 (target 0.88)"]
+fn cylinder_minus_ball_mean_quality() {
     let (d, o, v) = cyl_minus_ball();
     let r = measure("cylinder minus ball, h = min(4|x| - 1, 2), h0 = 0.1", &d, &o, v);
-    check_mean_and_size(&r);
+    check_mean(&r);
 }
 
 #[test]

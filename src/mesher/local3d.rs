@@ -39,8 +39,12 @@ const SURFACE_GAP: f64 = 0.9;
 /// Lattice points deeper than this many lattice sides (times h) are interior start points.
 const INTERIOR_DEPTH: f64 = 0.45;
 /// Tets below this dihedral quality get quality-driven swaps every SWAP_EVERY iterations.
-const SWAP_TQ: f64 = 0.35;
+const SWAP_TQ_DEFAULT: f64 = 0.5;
+fn swap_tq() -> f64 {
+    std::env::var("TM_SWAPTQ").ok().and_then(|x| x.parse().ok()).unwrap_or(SWAP_TQ_DEFAULT)
+}
 const SWAP_EVERY: usize = 1;
+const SWAP_RETRY: usize = 10;
 /// Tets whose centroid is within GEPS h0 h of d = 0 are dropped from the boundary (seed: 0.1).
 const GEPS: f64 = 0.1;
 /// Nodes moved farther than this many local sizes since their last check get their faces
@@ -56,7 +60,10 @@ const COLLAPSE_BELOW: f64 = 0.5;
 const QUALITY_PLATEAU: f64 = 1e-5;
 const PLATEAU_WINDOWS: usize = 4;
 /// Tets below this dihedral quality ([`tq`]) are attacked by the sliver removal.
-const TQ_TARGET: f64 = 0.5;
+const TQ_TARGET_DEFAULT: f64 = 0.6;
+fn tq_target() -> f64 {
+    std::env::var("TM_TQ").ok().and_then(|x| x.parse().ok()).unwrap_or(TQ_TARGET_DEFAULT)
+}
 /// Smoothing and perturbation may lower the star's mean radius ratio by at most this.
 const RR_SLACK: f64 = 0.01;
 /// Dihedral angle of the regular tetrahedron, degrees.
@@ -682,6 +689,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
     };
     let mut hv = sizes(ctx, &p)?;
     let (mut last_q, mut stall, mut converged, mut iter) = (0.0, 0, false, 0);
+    let mut tried: SecondaryMap<TetId, usize> = SecondaryMap::new();
     while iter < opts.max_iter {
         iter += 1;
         if let Some(cb) = &opts.progress {
@@ -775,15 +783,23 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
                 .into_par_iter()
                 .with_min_len(CHUNK)
                 .map(|k| (tq(snap.tets[k].map(|i| p[i as usize])), k))
-                .filter(|x| x.0 < SWAP_TQ)
+                .filter(|x| x.0 < swap_tq())
                 .collect();
             if !bad.is_empty() {
                 bad.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
                 write_back(m, &snap, &p);
                 for (_, k) in bad {
                     let t = snap.tet_ids[k];
-                    if m.contains_tet(t) && try_swaps(ctx, m, t)? {
-                        topo_changed = true;
+                    // A tet no swap could improve waits SWAP_RETRY iterations before the next try.
+                    if tried.get(t).is_some_and(|&at| iter < at + SWAP_RETRY) {
+                        continue;
+                    }
+                    if m.contains_tet(t) {
+                        if try_swaps(ctx, m, t)? {
+                            topo_changed = true;
+                        } else {
+                            tried.insert(t, iter);
+                        }
                     }
                 }
             }
@@ -821,6 +837,28 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             }
             if std::env::var_os("TM_NODENS").is_none() {
                 topo_changed |= density_control(ctx, m, &snap, &p, &hv, unit)?;
+            }
+            // Boundary nodes the step control kept off d = 0: the tets in the way are swapped
+            // away or their vertices smoothed, then the node moves.
+            let off: Vec<usize> = (0..p.len())
+                .into_par_iter()
+                .with_min_len(CHUNK)
+                .filter(|&i| snap.kind[i] == BOUNDARY)
+                .map(|i| Ok((i, ctx.approx_dist(p[i])?.abs() > 1e-3 * h0)))
+                .collect::<Result<Vec<_>, Error>>()?
+                .into_iter()
+                .filter(|x| x.1)
+                .map(|x| x.0)
+                .collect();
+            for i in off {
+                let v = snap.ids[i];
+                if !m.contains_vertex(v) {
+                    continue;
+                }
+                if let Some(q) = ctx.project(m.pos(v))? {
+                    clear_the_way(ctx, m, v, q)?;
+                    topo_changed = true;
+                }
             }
         }
         if topo_changed {
@@ -1157,9 +1195,24 @@ fn ring_patch(
 fn settle_boundary(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
     let vs: Vec<TVertexId> = m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Boundary).collect();
     for v in vs {
+        if !m.contains_vertex(v) {
+            continue;
+        }
         let p = m.pos(v);
+        if ctx.trace && ctx.approx_dist(p)?.abs() > 1e-3 * ctx.opts.h0 {
+            let q = ctx.project(p)?;
+            eprintln!(
+                "settle: off vertex at {p:?}, d {:.4}, projection {q:?}, relocate ok {:?}",
+                ctx.approx_dist(p)?,
+                q.map(|q| m.check_relocate(v, q))
+            );
+        }
         if let Some(q) = ctx.project(p)? {
-            if q != p && m.relocate(v, q).is_err() && !merge_into_boundary_neighbour(ctx, m, v)? {
+            if q != p
+                && m.relocate(v, q).is_err()
+                && !clear_the_way(ctx, m, v, q)?
+                && !merge_into_boundary_neighbour(ctx, m, v)?
+            {
                 // Part of the way at least.
                 for f in [0.5, 0.75, 0.9] {
                     if m.relocate(v, p.lerp(q, f)).is_ok() {
@@ -1170,6 +1223,49 @@ fn settle_boundary(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         }
     }
     Ok(())
+}
+
+/// The tets that would invert with `v` at `q` are swapped away or their other vertices
+/// smoothed, a few rounds, until `v` can move to `q`.
+fn clear_the_way(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId, q: DVec3) -> Result<bool, Error> {
+    for _ in 0..4 {
+        let blocking: Vec<TetId> = m
+            .vertex_tets(v)
+            .into_iter()
+            .filter(|&t| {
+                let p = m.tet(t).v.map(|w| if w == v { q } else { m.pos(w) });
+                orient3d(p[0], p[1], p[2], p[3]) != Sign::Positive
+            })
+            .collect();
+        if blocking.is_empty() {
+            break;
+        }
+        for t in blocking {
+            if !m.contains_tet(t) {
+                continue;
+            }
+            let nb = m.tet(t).adj.iter().filter(|a| a.is_none()).count();
+            if nb >= 2 && m.remove_boundary_tet(t).is_ok() {
+                ctx.report.removed += 1;
+                continue;
+            }
+            if try_swaps(ctx, m, t)? {
+                continue;
+            }
+            for w in m.tet(t).v {
+                if w != v {
+                    smooth_vertex(ctx, m, w)?;
+                }
+            }
+        }
+        if !m.contains_vertex(v) {
+            return Ok(true);
+        }
+        if m.relocate(v, q).is_ok() {
+            return Ok(true);
+        }
+    }
+    Ok(m.contains_vertex(v) && m.relocate(v, q).is_ok())
 }
 
 /// A boundary node that cannot reach d = 0 is collapsed along a boundary edge into the
@@ -1184,7 +1280,7 @@ fn merge_into_boundary_neighbour(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -
         let e = edge_index(m, t, v, w);
         let reverse = m.tet(t).v[EDGE_VERTICES[e][0]] != v;
         if let Ok(plan) = m.check_collapse(t, e, reverse, m.pos(w)) {
-            if plan.min_quality > 0.05 && best.as_ref().map_or(true, |b| plan.min_quality > b.0) {
+            if plan.min_quality > 0.0 && best.as_ref().map_or(true, |b| plan.min_quality > b.0) {
                 best = Some((plan.min_quality, plan));
             }
         }
@@ -1210,16 +1306,16 @@ fn count_off(ctx: &Ctx, m: &TetMesh) -> Result<usize, Error> {
 
 // ============================ sliver removal ============================
 
-/// One round of sliver removal over the tets below TQ_TARGET, worst first: swaps, then
+/// One round of sliver removal over the tets below tq_target(), worst first: swaps, then
 /// smoothing of their vertices, then (from the second round) random perturbations. Returns
 /// how many changes were accepted.
 fn improve(ctx: &mut Ctx, m: &mut TetMesh, round: usize) -> Result<usize, Error> {
     let mut bad: Vec<(f64, TetId)> =
-        m.tet_ids().map(|t| (tq(m.tet_points(t)), t)).filter(|&(q, _)| q < TQ_TARGET).collect();
+        m.tet_ids().map(|t| (tq(m.tet_points(t)), t)).filter(|&(q, _)| q < tq_target()).collect();
     bad.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
     let mut changes = 0;
     for (_, t) in bad {
-        if !m.contains_tet(t) || tq(m.tet_points(t)) >= TQ_TARGET {
+        if !m.contains_tet(t) || tq(m.tet_points(t)) >= tq_target() {
             continue;
         }
         if try_swaps(ctx, m, t)? {
@@ -1234,7 +1330,7 @@ fn improve(ctx: &mut Ctx, m: &mut TetMesh, round: usize) -> Result<usize, Error>
                 moved = true;
             }
         }
-        if moved && m.contains_tet(t) && tq(m.tet_points(t)) >= TQ_TARGET {
+        if moved && m.contains_tet(t) && tq(m.tet_points(t)) >= tq_target() {
             continue;
         }
         if round > 0 && m.contains_tet(t) {
