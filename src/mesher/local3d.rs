@@ -39,11 +39,9 @@ const SURFACE_GAP: f64 = 0.9;
 /// Lattice points deeper than this many lattice sides (times h) are interior start points.
 const INTERIOR_DEPTH: f64 = 0.45;
 /// Tets below this dihedral quality get quality-driven swaps every SWAP_EVERY iterations.
-const SWAP_TQ_DEFAULT: f64 = 0.5;
-fn swap_tq() -> f64 {
-    std::env::var("TM_SWAPTQ").ok().and_then(|x| x.parse().ok()).unwrap_or(SWAP_TQ_DEFAULT)
-}
+const SWAP_TQ: f64 = 0.5;
 const SWAP_EVERY: usize = 1;
+/// A tet no swap could improve is tried again only this many iterations later.
 const SWAP_RETRY: usize = 10;
 /// Tets whose centroid is within GEPS h0 h of d = 0 are dropped from the boundary (seed: 0.1).
 const GEPS: f64 = 0.1;
@@ -60,10 +58,7 @@ const COLLAPSE_BELOW: f64 = 0.5;
 const QUALITY_PLATEAU: f64 = 1e-5;
 const PLATEAU_WINDOWS: usize = 4;
 /// Tets below this dihedral quality ([`tq`]) are attacked by the sliver removal.
-const TQ_TARGET_DEFAULT: f64 = 0.6;
-fn tq_target() -> f64 {
-    std::env::var("TM_TQ").ok().and_then(|x| x.parse().ok()).unwrap_or(TQ_TARGET_DEFAULT)
-}
+const TQ_TARGET: f64 = 0.6;
 /// Smoothing and perturbation may lower the star's mean radius ratio by at most this.
 const RR_SLACK: f64 = 0.01;
 /// Dihedral angle of the regular tetrahedron, degrees.
@@ -302,8 +297,7 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
     }
     equilibrium(&mut ctx, &mut mesh)?;
     settle_boundary(&mut ctx, &mut mesh)?;
-    let rounds = std::env::var("TM_POLISH").ok().and_then(|x| x.parse().ok()).unwrap_or(opts.polish_rounds);
-    for round in 0..rounds {
+    for round in 0..opts.polish_rounds {
         let changed = improve(&mut ctx, &mut mesh, round)?;
         if ctx.trace {
             let q = QualityStats3::of(&mesh);
@@ -707,9 +701,8 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             s
         });
         let unit = (sl / sh).cbrt();
-        let fscale = std::env::var("TM_FSCALE").ok().and_then(|x| x.parse().ok()).unwrap_or(opts.fscale);
-        let scale = fscale * unit;
-        let dt = std::env::var("TM_DT").ok().and_then(|x| x.parse().ok()).unwrap_or(opts.deltat);
+        let scale = opts.fscale * unit;
+        let dt = opts.deltat;
         let mut newp: Vec<DVec3> = (0..p.len())
             .into_par_iter()
             .with_min_len(CHUNK)
@@ -757,7 +750,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             .with_min_len(CHUNK)
             .map(|i| p[i].distance(pold[i]) > TTOL * h0 * hv[i])
             .collect();
-        if far.iter().any(|&x| x) && std::env::var_os("TM_NOLAWSON").is_none() {
+        if far.iter().any(|&x| x) {
             let mut stack: Vec<(TetId, usize)> = Vec::new();
             for (k, t) in snap.tets.iter().enumerate() {
                 if t.iter().any(|&i| far[i as usize]) {
@@ -783,7 +776,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
                 .into_par_iter()
                 .with_min_len(CHUNK)
                 .map(|k| (tq(snap.tets[k].map(|i| p[i as usize])), k))
-                .filter(|x| x.0 < swap_tq())
+                .filter(|x| x.0 < SWAP_TQ)
                 .collect();
             if !bad.is_empty() {
                 bad.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
@@ -832,12 +825,8 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         }
         if iter % DENSITY_EVERY == 0 {
             write_back(m, &snap, &p);
-            if std::env::var_os("TM_NOSURF").is_none() {
-                topo_changed |= surface_flips(ctx, m)? > 0;
-            }
-            if std::env::var_os("TM_NODENS").is_none() {
-                topo_changed |= density_control(ctx, m, &snap, &p, &hv, unit)?;
-            }
+            topo_changed |= surface_flips(ctx, m)? > 0;
+            topo_changed |= density_control(ctx, m, &snap, &p, &hv, unit)?;
             // Boundary nodes the step control kept off d = 0: the tets in the way are swapped
             // away or their vertices smoothed, then the node moves.
             let off: Vec<usize> = (0..p.len())
@@ -1306,16 +1295,16 @@ fn count_off(ctx: &Ctx, m: &TetMesh) -> Result<usize, Error> {
 
 // ============================ sliver removal ============================
 
-/// One round of sliver removal over the tets below tq_target(), worst first: swaps, then
+/// One round of sliver removal over the tets below TQ_TARGET, worst first: swaps, then
 /// smoothing of their vertices, then (from the second round) random perturbations. Returns
 /// how many changes were accepted.
 fn improve(ctx: &mut Ctx, m: &mut TetMesh, round: usize) -> Result<usize, Error> {
     let mut bad: Vec<(f64, TetId)> =
-        m.tet_ids().map(|t| (tq(m.tet_points(t)), t)).filter(|&(q, _)| q < tq_target()).collect();
+        m.tet_ids().map(|t| (tq(m.tet_points(t)), t)).filter(|&(q, _)| q < TQ_TARGET).collect();
     bad.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
     let mut changes = 0;
     for (_, t) in bad {
-        if !m.contains_tet(t) || tq(m.tet_points(t)) >= tq_target() {
+        if !m.contains_tet(t) || tq(m.tet_points(t)) >= TQ_TARGET {
             continue;
         }
         if try_swaps(ctx, m, t)? {
@@ -1330,7 +1319,7 @@ fn improve(ctx: &mut Ctx, m: &mut TetMesh, round: usize) -> Result<usize, Error>
                 moved = true;
             }
         }
-        if moved && m.contains_tet(t) && tq(m.tet_points(t)) >= tq_target() {
+        if moved && m.contains_tet(t) && tq(m.tet_points(t)) >= TQ_TARGET {
             continue;
         }
         if round > 0 && m.contains_tet(t) {
