@@ -38,9 +38,8 @@ const LATTICE: f64 = 1.1;
 const SURFACE_GAP: f64 = 0.9;
 /// Lattice points deeper than this many lattice sides (times h) are interior start points.
 const INTERIOR_DEPTH: f64 = 0.45;
-/// Tets below this dihedral quality get quality-driven swaps every SWAP_EVERY iterations.
+/// Tets below this dihedral quality get quality-driven swaps every iteration.
 const SWAP_TQ: f64 = 0.5;
-const SWAP_EVERY: usize = 1;
 /// A tet no swap could improve is tried again only this many iterations later.
 const SWAP_RETRY: usize = 10;
 /// Tets whose centroid is within GEPS h0 h of d = 0 are dropped from the boundary (seed: 0.1).
@@ -59,6 +58,10 @@ const QUALITY_PLATEAU: f64 = 1e-5;
 const PLATEAU_WINDOWS: usize = 4;
 /// Tets below this dihedral quality ([`tq`]) are attacked by the sliver removal.
 const TQ_TARGET: f64 = 0.6;
+/// Boundary tets below this dihedral quality that no swap improves get an edge collapsed,
+/// when every new tet keeps a radius ratio above CAP_COLLAPSE_RR.
+const CAP_TQ: f64 = 0.2;
+const CAP_COLLAPSE_RR: f64 = 0.2;
 /// Smoothing and perturbation may lower the star's mean radius ratio by at most this.
 const RR_SLACK: f64 = 0.01;
 /// Dihedral angle of the regular tetrahedron, degrees.
@@ -771,7 +774,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         }
         // Quality-driven swaps: the tets below SWAP_TQ, worst first, get the best edge removal
         // or 2-3 flip that raises the local worst quality (Lawson alone stalls in 3-D).
-        if iter % SWAP_EVERY == 0 {
+        {
             let mut bad: Vec<(f64, usize)> = (0..snap.tets.len())
                 .into_par_iter()
                 .with_min_len(CHUNK)
@@ -1085,6 +1088,7 @@ fn surface_flips(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
 /// edge removal); each ring triangle makes one tet with each end. For a boundary edge the ring
 /// is open, its two ends become the new boundary edge, which must stay near d = 0 (the
 /// flip may not cut across a sharp edge of the domain). Returns the patch and its worst tq.
+#[allow(clippy::needless_range_loop)]
 fn ring_patch(
     ctx: &Ctx,
     m: &TetMesh,
@@ -1092,7 +1096,7 @@ fn ring_patch(
     allow_boundary: bool,
 ) -> Result<Option<(TetPatch, f64)>, Error> {
     let n = s.ring.len();
-    if n < 3 || n > 12 || (!s.closed && !allow_boundary) {
+    if !(3..=12).contains(&n) || (!s.closed && !allow_boundary) {
         return Ok(None);
     }
     let label = m.tet(s.tets[0]).label;
@@ -1375,6 +1379,31 @@ fn try_swaps(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> Result<bool, Error> {
         ctx.report.flips += 1;
         return Ok(true);
     }
+    // A flat cap on the boundary that neither leaves nor swaps: collapse its shortest edge
+    // whose collapse leaves every new tet above CAP_COLLAPSE_RR (the forces respace later).
+    if nb >= 1 && tq(m.tet_points(t)) < CAP_TQ {
+        let tx = *m.tet(t);
+        let mut edges: SmallVec<[(f64, usize); 6]> = (0..6)
+            .map(|e| {
+                let [i, j] = EDGE_VERTICES[e];
+                (m.pos(tx.v[i]).distance(m.pos(tx.v[j])), e)
+            })
+            .collect();
+        edges.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for (_, e) in edges {
+            for reverse in [false, true] {
+                let [i, j] = EDGE_VERTICES[e];
+                let stay = if reverse { tx.v[i] } else { tx.v[j] };
+                if let Ok(plan) = m.check_collapse(t, e, reverse, m.pos(stay)) {
+                    if plan.min_quality > CAP_COLLAPSE_RR {
+                        m.apply_patch(plan);
+                        ctx.report.collapses += 1;
+                        return Ok(true);
+                    }
+                }
+            }
+        }
+    }
     Ok(false)
 }
 
@@ -1433,7 +1462,7 @@ fn smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, E
             let nrm = ctx.domain.gradient(x).normalize_or_zero();
             g -= nrm * g.dot(nrm);
         }
-        if !(g.length() > 0.0) || !g.is_finite() {
+        if g.length() <= 0.0 || !g.is_finite() {
             break;
         }
         let dir = g.normalize();
