@@ -98,6 +98,30 @@ pub(crate) fn tq(p: [DVec3; 4]) -> f64 {
     (lo / REGULAR_DIHEDRAL).min((180.0 - hi) / (180.0 - REGULAR_DIHEDRAL))
 }
 
+/// Whether [`tq`] is below `thr`, without an acos: theta_min < thr 70.53 degrees or theta_max
+/// > 180 - thr 109.47 degrees, compared as cosines (the scan over every tet every step).
+fn tq_below(p: [DVec3; 4], cos_lo: f64, cos_hi: f64) -> bool {
+    if crate::quality::tet_volume(p) <= 0.0 {
+        return true;
+    }
+    let n = |a: usize, b: usize, c: usize| (p[b] - p[a]).cross(p[c] - p[a]).normalize_or_zero();
+    let f = [n(1, 2, 3), n(0, 3, 2), n(0, 1, 3), n(0, 2, 1)];
+    for i in 0..4 {
+        for j in i + 1..4 {
+            let c = -f[i].dot(f[j]);
+            if c > cos_lo || c < cos_hi {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// The cosine bounds of [`tq_below`] for a threshold.
+fn tq_cos_bounds(thr: f64) -> (f64, f64) {
+    ((thr * REGULAR_DIHEDRAL).to_radians().cos(), (180.0 - thr * (180.0 - REGULAR_DIHEDRAL)).to_radians().cos())
+}
+
 struct Ctx<'a> {
     domain: &'a dyn Implicit3,
     opts: &'a Options3,
@@ -775,11 +799,14 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         // Quality-driven swaps: the tets below SWAP_TQ, worst first, get the best edge removal
         // or 2-3 flip that raises the local worst quality (Lawson alone stalls in 3-D).
         {
+            let (cl, ch) = tq_cos_bounds(SWAP_TQ);
             let mut bad: Vec<(f64, usize)> = (0..snap.tets.len())
                 .into_par_iter()
                 .with_min_len(CHUNK)
-                .map(|k| (tq(snap.tets[k].map(|i| p[i as usize])), k))
-                .filter(|x| x.0 < SWAP_TQ)
+                .filter_map(|k| {
+                    let q = snap.tets[k].map(|i| p[i as usize]);
+                    tq_below(q, cl, ch).then(|| (tq(q), k))
+                })
                 .collect();
             if !bad.is_empty() {
                 bad.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
@@ -1561,5 +1588,21 @@ mod tests {
         assert!((tq(p) - 1.0).abs() < 1e-9, "{}", tq(p));
         let flat = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(1.0, 1.0, 0.0)];
         assert!(tq(flat) < 0.0);
+    }
+
+    #[test]
+    fn tq_below_agrees_with_tq() {
+        let (cl, ch) = tq_cos_bounds(0.5);
+        let mut rng = crate::testing::Rng::new(crate::testing::SEED);
+        let mut seen = [0usize; 2];
+        for _ in 0..2000 {
+            let p = [0; 4].map(|_| DVec3::new(rng.f64(), rng.f64(), rng.f64()));
+            let q = tq(p);
+            if (q - 0.5).abs() > 1e-9 {
+                assert_eq!(tq_below(p, cl, ch), q < 0.5, "tq {q}");
+                seen[(q < 0.5) as usize] += 1;
+            }
+        }
+        assert!(seen[0] > 0 && seen[1] > 0, "both sides sampled: {seen:?}");
     }
 }
