@@ -804,3 +804,38 @@ impl TetMesh {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::testing::{edge_shell, tet_grid, tet_pair};
+    use crate::topology::{Level, Refusal};
+
+    #[test]
+    fn boundary_tet_removal_keeps_a_valid_manifold() {
+        // Three boundary faces: the tet and its free apex go.
+        let mut m = tet_pair();
+        let t = m.tet_ids().next().unwrap();
+        m.remove_boundary_tet(t).expect("a tent comes off");
+        assert_eq!((m.num_tets(), m.num_vertices()), (1, 4));
+        m.validate(Level::Geometry).expect("valid");
+        // Two boundary faces and an interior opposite edge: the edge joins the boundary.
+        let mut m = edge_shell(5);
+        let t = m.tet_ids().next().unwrap();
+        m.remove_boundary_tet(t).expect("a cap comes off");
+        assert_eq!(m.num_tets(), 4);
+        m.validate(Level::Geometry).expect("valid");
+        // The shell is open now: an end tet has three boundary faces and its ring vertex is in
+        // no other tet, so it comes off with that vertex.
+        let u = m.tet_ids().find(|&u| m.tet(u).adj.iter().filter(|a| a.is_none()).count() == 3).expect("an end tet");
+        assert_eq!(m.check_remove_boundary_tet(u), Ok(3));
+        m.remove_boundary_tet(u).expect("comes off");
+        assert_eq!((m.num_tets(), m.num_vertices()), (3, 6));
+        m.validate(Level::Geometry).expect("valid");
+        // An interior tet is refused and the mesh is untouched.
+        let g = tet_grid(4);
+        let inner = g.tet_ids().find(|&t| g.tet(t).adj.iter().all(|a| a.is_some())).expect("an interior tet");
+        let mut h = g.clone();
+        assert_eq!(h.remove_boundary_tet(inner), Err(Refusal::TooSmall));
+        assert!(h == g);
+    }
+}
