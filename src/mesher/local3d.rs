@@ -62,6 +62,8 @@ const TQ_TARGET: f64 = 0.6;
 /// when every new tet keeps a radius ratio above CAP_COLLAPSE_RR.
 const CAP_TQ: f64 = 0.2;
 const CAP_COLLAPSE_RR: f64 = 0.2;
+/// Rounds of smart Laplacian smoothing after the sliver removal.
+const LAPLACE_ROUNDS: usize = 3;
 /// Smoothing and perturbation may lower the star's mean radius ratio by at most this.
 const RR_SLACK: f64 = 0.01;
 /// Dihedral angle of the regular tetrahedron, degrees.
@@ -334,6 +336,19 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
             );
         }
         if changed == 0 {
+            break;
+        }
+    }
+    for round in 0..LAPLACE_ROUNDS {
+        let moved = smart_laplacian(&mut ctx, &mut mesh)?;
+        if ctx.trace {
+            let q = QualityStats3::of(&mesh);
+            eprintln!(
+                "laplace {round}: {moved} moves, dihedral {:.2} .. {:.2}, rr mean {:.4}",
+                q.dihedral_min, q.dihedral_max, q.rr_mean
+            );
+        }
+        if moved == 0 {
             break;
         }
     }
@@ -1432,6 +1447,46 @@ fn try_swaps(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> Result<bool, Error> {
         }
     }
     Ok(false)
+}
+
+/// Smart Laplacian smoothing (Freitag and Ollivier-Gooch 1997 call it that): each free vertex
+/// moves to the mean of its neighbours (boundary vertices: then onto d = 0) when that raises
+/// its star's mean radius ratio and keeps the star's worst dihedral quality at least
+/// min(its old value, TQ_TARGET), so the extreme angles never get worse. Returns the moves.
+fn smart_laplacian(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
+    let vs: Vec<TVertexId> = m.vertex_ids().collect();
+    let mut moved = 0;
+    for v in vs {
+        if !m.contains_vertex(v) || m.tag(v) == VertexTag::Fixed {
+            continue;
+        }
+        let boundary = m.tag(v) == VertexTag::Boundary;
+        let nb = m.vertex_neighbours(v);
+        let nb: SmallVec<[DVec3; 32]> = nb
+            .iter()
+            .filter(|&&w| !boundary || matches!(m.tag(w), VertexTag::Boundary | VertexTag::Fixed))
+            .map(|&w| m.pos(w))
+            .collect();
+        if nb.is_empty() {
+            continue;
+        }
+        let mut y = nb.iter().copied().sum::<DVec3>() / nb.len() as f64;
+        if boundary {
+            match ctx.project(y)? {
+                Some(q) => y = q,
+                None => continue,
+            }
+        }
+        let star = star_of(m, v);
+        let x = m.pos(v);
+        let (f0, _) = star_min(&star, x);
+        let (f1, _) = star_min(&star, y);
+        if f1 >= f0.min(TQ_TARGET) && star_rr(&star, y) > star_rr(&star, x) + 1e-6 && m.relocate(v, y).is_ok() {
+            moved += 1;
+        }
+    }
+    ctx.report.smoothings += moved;
+    Ok(moved)
 }
 
 /// The star of `v` as point quadruples with `v`'s slot marked, for moving `v` around.
