@@ -896,6 +896,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             }
         }
         if topo_changed {
+            // Density control may grow the mesh past what the survey estimated.
+            if m.num_tets() as u64 > opts.max_elements {
+                return Err(Error::TooManyElements { estimated: m.num_tets() as u64, limit: opts.max_elements });
+            }
             snap = Snapshot::build(m);
             p = snap.ids.iter().map(|&v| m.pos(v)).collect();
             pold = p.clone();
