@@ -236,8 +236,8 @@ fn negative_h0() {
 
 #[test]
 fn other_bad_mesh_input() {
-    let a = mesh_args("x", &["--dim", "3", "--h0", "0.1", "--bbox", "-1,-1,-1,1,1,1"]);
-    bad(&a, &["3-D meshing is not available yet"]);
+    let a = ["mesh", "--dim", "3", "--domain", "x", "--h0", "0.1", "--bbox", "-1,-1,-1,1,1,1", "-o", "a.svg"];
+    bad(&a, &["cannot hold tetrahedra"]);
     let a = mesh_args("x", &["--h0", "0.1", "--bbox", "-1,-1,1,1", "--fix", "0,0,0"]);
     bad(&a, &["fixed point 1 has 3 coordinates"]);
     let a = ["mesh", "--domain", "x", "--h0", "0.1", "--bbox", "-1,-1,1,1", "-o", "a.txt"];

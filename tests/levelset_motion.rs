@@ -3,7 +3,7 @@
 //! every step is meshed with the moving-mesh API from the previous mesh.
 
 use glam::DVec2;
-use trussmesh::geometry::{levelset, Circle, Grid2, Implicit2};
+use trussmesh::geometry::{levelset, Circle, Grid2};
 use trussmesh::mesher::{boundary_deviation, mesh_2d, move_mesh_2d, Options2};
 use trussmesh::topology::Level;
 

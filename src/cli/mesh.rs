@@ -8,10 +8,10 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-use trussmesh::expr::{Expr, ExprImplicit2};
+use trussmesh::expr::{Expr, ExprImplicit2, ExprImplicit3};
 use trussmesh::geometry::project::Projection;
 use trussmesh::io::{CellType, Format, MeshData};
-use trussmesh::mesher::{mesh_2d, Metric2, Options2, Report};
+use trussmesh::mesher::{mesh_2d, mesh_3d, Metric2, Options2, Options3, Report};
 
 /// Projection of boundary nodes onto d = 0.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Deserialize)]
@@ -167,10 +167,12 @@ pub struct Job {
     pub outputs: Vec<PathBuf>,
 }
 
-/// A finished 2-D run.
+/// A finished run. `report` carries the 2-D report (for 3-D: its counts and times, no
+/// triangle statistics); `summary` is the report as printed.
 pub struct Meshed {
     pub mesh: MeshData,
     pub report: Report,
+    pub summary: String,
 }
 
 /// Splits at `sep` outside parentheses.
@@ -452,10 +454,46 @@ impl Job {
         o
     }
 
-    /// Meshes (2-D only for now).
+    /// The 3-D mesher's options.
+    pub fn options3(&self, progress: Option<ProgressBar>) -> Options3 {
+        let b = &self.bbox;
+        let mut o = Options3::uniform(self.h0, [b[0], b[1], b[2]], [b[3], b[4], b[5]]);
+        if let Some(h) = &self.size {
+            let h = h.clone();
+            o = o.with_size(move |p| h.eval(p.x, p.y, p.z));
+        }
+        o = o.with_fixed(self.fix.iter().map(|p| [p[0], p[1], p[2]]));
+        if let Some(n) = self.max_iter {
+            o = o.with_max_iter(n);
+        }
+        if let Some(s) = self.seed {
+            o = o.with_seed(s);
+        }
+        if let Some(p) = self.projection {
+            o = o.with_projection(p.into());
+        }
+        if let Some(pb) = progress {
+            let start = Instant::now();
+            let shown = AtomicBool::new(false);
+            o = o.with_progress(move |it, cap| {
+                if !shown.load(Ordering::Relaxed) {
+                    if start.elapsed() < Duration::from_secs(1) {
+                        return;
+                    }
+                    shown.store(true, Ordering::Relaxed);
+                    pb.set_draw_target(ProgressDrawTarget::stderr());
+                }
+                pb.set_length(cap as u64);
+                pb.set_position(it as u64);
+            });
+        }
+        o
+    }
+
+    /// Meshes in 2-D or 3-D.
     pub fn mesh(&self, quiet: bool) -> Result<Meshed, Failure> {
         if self.dim == 3 {
-            return mesh3(self);
+            return mesh3(self, quiet);
         }
         let geom = ExprImplicit2 { expr: self.domain.clone(), distance: !self.implicit };
         let pb = progress_bar(quiet);
@@ -474,13 +512,51 @@ impl Job {
             cells: tris.iter().flatten().copied().collect(),
             subdomain,
         };
-        Ok(Meshed { mesh, report: out.report })
+        let summary = out.report.to_string();
+        Ok(Meshed { mesh, report: out.report, summary })
     }
 }
 
-/// 3-D meshing: the plumbing is here; the mesher is not yet.
-fn mesh3(_job: &Job) -> Result<Meshed, Failure> {
-    Err(Failure::bad("3-D meshing is not available yet (use --dim 2)"))
+/// 3-D meshing: tetrahedra, written as 3-D cells (.vtu, .msh, .mesh, .json).
+fn mesh3(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
+    for p in &job.outputs {
+        if matches!(extension(p).as_str(), "svg" | "png" | "obj" | "stl" | "ply") {
+            return Err(Failure::bad(format!(
+                "{} cannot hold tetrahedra; use .vtu, .msh, .mesh or .json with --dim 3",
+                p.display()
+            )));
+        }
+    }
+    let geom = ExprImplicit3 { expr: job.domain.clone(), distance: !job.implicit };
+    let pb = progress_bar(quiet);
+    let out = mesh_3d(&geom, &job.options3(pb.clone()));
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    let out = out?;
+    let (points, tets, labels, _) = out.mesh.to_arrays();
+    let subdomain =
+        if labels.iter().any(|&l| l != 0) { Some(labels.iter().map(|&l| l as i32).collect()) } else { None };
+    let mesh = MeshData {
+        dim: 3,
+        cell_type: CellType::Tetra,
+        points: points.iter().map(|p| p.to_array()).collect(),
+        cells: tets.iter().flatten().copied().collect(),
+        subdomain,
+    };
+    let r = &out.report;
+    let report = Report {
+        iterations: r.iterations,
+        converged: r.converged,
+        stop_reason: r.stop_reason.clone(),
+        seconds: r.seconds,
+        flips: r.flips,
+        splits: r.splits,
+        collapses: r.collapses,
+        boundary_nodes_off: r.boundary_nodes_off,
+        ..Default::default()
+    };
+    Ok(Meshed { mesh, report, summary: r.to_string() })
 }
 
 /// Writes one output: a mesh file, or a picture for .svg and .png.
@@ -511,7 +587,7 @@ pub fn run(args: MeshArgs) -> Result<(), Failure> {
         write_output(p, &done.mesh, &title)?;
     }
     if !args.quiet {
-        println!("{}", done.report);
+        println!("{}", done.summary);
         for p in &job.outputs {
             println!("wrote {}", p.display());
         }

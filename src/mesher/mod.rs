@@ -6,16 +6,21 @@ pub mod image;
 mod input;
 mod internal;
 mod local2d;
+mod local3d;
 pub mod metric;
 mod options;
+mod options3;
 mod report;
+mod report3;
 
 pub use metric::{Metric2, Metric3, MetricFn2, MetricGrid2, MetricStats};
 pub use options::{Options2, ProgressFn, SizeFn2, Strategy};
+pub use options3::{Options3, SizeFn3};
 pub use report::{area, boundary_deviation, size_deviation, QualityStats, Report};
+pub use report3::{boundary_deviation_3d, circumradius, size_deviation_3d, QualityStats3, Report3};
 
-use crate::geometry::Implicit2;
-use crate::topology::TriMesh;
+use crate::geometry::{Implicit2, Implicit3};
+use crate::topology::{TetMesh, TriMesh};
 use glam::DVec2;
 
 /// A 2-D mesh and the report of the run that made it.
@@ -25,6 +30,28 @@ pub struct MeshOutput2 {
     pub mesh: TriMesh<DVec2>,
     /// Iterations, time, operation counts, quality statistics and why it stopped.
     pub report: Report,
+}
+
+/// A 3-D mesh and the report of the run that made it.
+#[derive(Clone, Debug)]
+pub struct MeshOutput3 {
+    /// The tetrahedral mesh (boundary vertices tagged `Boundary`, fixed points `Fixed`).
+    pub mesh: TetMesh,
+    /// Iterations, time, operation counts, quality statistics and why it stopped.
+    pub report: Report3,
+}
+
+/// Meshes {d < 0} in 3-D with tetrahedra: force equilibrium with local swaps, density control
+/// and sliver removal inside the run (see the module notes of the 3-D mesher).
+///
+/// ```
+/// use trussmesh::geometry::Ball;
+/// use trussmesh::mesher::{mesh_3d, Options3};
+/// let out = mesh_3d(&Ball::new([0.0, 0.0, 0.0], 1.0), &Options3::uniform(0.4, [-1.1; 3], [1.1; 3])).unwrap();
+/// assert!(out.report.quality.dihedral_min > 5.0);
+/// ```
+pub fn mesh_3d(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, crate::Error> {
+    local3d::run(domain, opts)
 }
 
 /// Meshes {d < 0} in 2-D.

@@ -692,6 +692,92 @@ impl TetMesh {
         Ok(b)
     }
 
+    // ===================== boundary tet removal =====================
+
+    /// Checks deleting tet `t` from the boundary so that the boundary stays a 2-manifold: with
+    /// one boundary face its opposite vertex must be interior (it joins the boundary); with two
+    /// boundary faces the edge they do not share must not touch the boundary; with three, the
+    /// vertex they share must lie in `t` only and not be fixed (it goes with `t`). Returns the
+    /// number of boundary faces.
+    pub fn check_remove_boundary_tet(&self, t: TetId) -> Result<usize, Refusal> {
+        let tx = self.live_tet(t)?;
+        let nb = tx.adj.iter().filter(|a| a.is_none()).count();
+        match nb {
+            1 => {
+                let i = tx.adj.iter().position(|a| a.is_none()).expect("one boundary face");
+                if self.is_boundary_vertex(tx.v[i]) {
+                    return Err(Refusal::Protected(VertexTag::Boundary));
+                }
+            }
+            2 => {
+                // Faces opposite c and d are boundary: the edge c-d must be interior.
+                let mut cd = [0usize; 2];
+                let mut k = 0;
+                for i in 0..4 {
+                    if tx.adj[i].is_none() {
+                        cd[k] = i;
+                        k += 1;
+                    }
+                }
+                if !self.edge_shell(t, cd[0], cd[1]).closed {
+                    return Err(Refusal::BoundaryEdge);
+                }
+            }
+            3 => {
+                let i = tx.adj.iter().position(|a| a.is_some()).expect("one interior face");
+                let v = tx.v[i];
+                if self.vertices[v].tag == VertexTag::Fixed {
+                    return Err(Refusal::Protected(VertexTag::Fixed));
+                }
+                if self.vertex_tets(v).len() != 1 {
+                    return Err(Refusal::LinkCondition);
+                }
+            }
+            _ => return Err(Refusal::TooSmall),
+        }
+        if tx.adj.iter().any(|a| a.is_some_and(|(u, _)| self.tets[u].label != tx.label)) {
+            return Err(Refusal::Constrained);
+        }
+        Ok(nb)
+    }
+
+    /// Deletes tet `t` from the boundary (see [`TetMesh::check_remove_boundary_tet`]); a vertex
+    /// that joins the boundary is tagged `Boundary` unless it is `Fixed`.
+    pub fn remove_boundary_tet(&mut self, t: TetId) -> Result<(), Refusal> {
+        let nb = self.check_remove_boundary_tet(t)?;
+        let tx = self.tets[t];
+        if nb == 3 {
+            let i = tx.adj.iter().position(|a| a.is_some()).expect("one interior face");
+            let (u, j) = tx.adj[i].expect("interior face");
+            self.revision = self.revision.wrapping_add(1);
+            self.tets[u].adj[j as usize] = None;
+            for w in self.tets[u].v {
+                self.vertices[w].tet = u;
+            }
+            self.tets.remove(t);
+            self.vertices.remove(tx.v[i]);
+            return Ok(());
+        }
+        self.revision = self.revision.wrapping_add(1);
+        for i in 0..4 {
+            if let Some((u, j)) = tx.adj[i] {
+                self.tets[u].adj[j as usize] = None;
+                for w in self.tets[u].v {
+                    if tx.v.contains(&w) {
+                        self.vertices[w].tet = u;
+                    }
+                }
+            }
+        }
+        self.tets.remove(t);
+        for w in tx.v {
+            if self.vertices[w].tag == VertexTag::Interior {
+                self.vertices[w].tag = VertexTag::Boundary;
+            }
+        }
+        Ok(())
+    }
+
     // ===================== relocation =====================
 
     /// Checks moving `v` to `p`: fixed vertices never move; every tet around `v` stays positive.
@@ -716,5 +802,40 @@ impl TetMesh {
         self.vertices[v].pos = p;
         self.revision = self.revision.wrapping_add(1);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::testing::{edge_shell, tet_grid, tet_pair};
+    use crate::topology::{Level, Refusal};
+
+    #[test]
+    fn boundary_tet_removal_keeps_a_valid_manifold() {
+        // Three boundary faces: the tet and its free apex go.
+        let mut m = tet_pair();
+        let t = m.tet_ids().next().unwrap();
+        m.remove_boundary_tet(t).expect("a tent comes off");
+        assert_eq!((m.num_tets(), m.num_vertices()), (1, 4));
+        m.validate(Level::Geometry).expect("valid");
+        // Two boundary faces and an interior opposite edge: the edge joins the boundary.
+        let mut m = edge_shell(5);
+        let t = m.tet_ids().next().unwrap();
+        m.remove_boundary_tet(t).expect("a cap comes off");
+        assert_eq!(m.num_tets(), 4);
+        m.validate(Level::Geometry).expect("valid");
+        // The shell is open now: an end tet has three boundary faces and its ring vertex is in
+        // no other tet, so it comes off with that vertex.
+        let u = m.tet_ids().find(|&u| m.tet(u).adj.iter().filter(|a| a.is_none()).count() == 3).expect("an end tet");
+        assert_eq!(m.check_remove_boundary_tet(u), Ok(3));
+        m.remove_boundary_tet(u).expect("comes off");
+        assert_eq!((m.num_tets(), m.num_vertices()), (3, 6));
+        m.validate(Level::Geometry).expect("valid");
+        // An interior tet is refused and the mesh is untouched.
+        let g = tet_grid(4);
+        let inner = g.tet_ids().find(|&t| g.tet(t).adj.iter().all(|a| a.is_some())).expect("an interior tet");
+        let mut h = g.clone();
+        assert_eq!(h.remove_boundary_tet(inner), Err(Refusal::TooSmall));
+        assert!(h == g);
     }
 }

@@ -1,0 +1,1667 @@
+//! The 3-D mesher on the tetrahedral engine (seed chapters 2 and 3, and the seed's own list of
+//! future work: swaps inside the iteration instead of a global retriangulation).
+//!
+//! 1. Start: a body-centred cubic lattice over the box (its Delaunay tetrahedralization has no
+//!    cospherical degeneracy and well-shaped tets), thinned by the size function as in the seed
+//!    (keep with probability (h_min / h)^3), points with d < 0, Delaunay through the engine,
+//!    tets with centroid outside carved away, pinched vertices and edges repaired.
+//! 2. Force equilibrium: repulsive bars f = max(L0 - L, 0) (seed eq. 2.6 with the cube root),
+//!    forward Euler, boundary nodes projected onto d = 0 every step, step control so that no tet
+//!    inverts (exact orient3d), Lawson flips (exact insphere) around nodes that moved, surface
+//!    edge flips, and density control (splits and collapses).
+//! 3. Sliver removal: the worst tets (by dihedral angles) are attacked by swaps (edge removal
+//!    with an optimal ring triangulation, Shewchuk 2002; 2-3 flips; boundary edge flips), by
+//!    optimisation-based smoothing of their vertices (maximise the worst quality in the star,
+//!    Freitag and Ollivier-Gooch 1997), then by small random perturbations (Tournois et al.
+//!    2009), each accepted only when the local worst quality improves.
+//!
+//! Set `TRUSSMESH_TRACE=1` to print the state every ten iterations.
+
+use super::options3::Options3;
+use super::report3::{QualityStats3, Report3};
+use super::MeshOutput3;
+use crate::geometry::project::{project3, ProjectError, Projection};
+use crate::geometry::Implicit3;
+use crate::predicates::{orient3d, Sign};
+use crate::topology::{Level, TVertexId, TetId, TetMesh, TetPatch, VertexTag, EDGE_VERTICES};
+use crate::Error;
+use glam::DVec3;
+use rayon::prelude::*;
+use slotmap::SecondaryMap;
+use smallvec::SmallVec;
+use std::collections::HashMap;
+use std::time::Instant;
+
+/// Lattice side over target edge length: the BCC Delaunay edges are a and a sqrt(3)/2 long.
+const LATTICE: f64 = 1.1;
+/// Surface start points are at least this many lattice sides (times h) apart.
+const SURFACE_GAP: f64 = 0.9;
+/// Lattice points deeper than this many lattice sides (times h) are interior start points.
+const INTERIOR_DEPTH: f64 = 0.45;
+/// Tets below this dihedral quality get quality-driven swaps every iteration.
+const SWAP_TQ: f64 = 0.5;
+/// A tet no swap could improve is tried again only this many iterations later.
+const SWAP_RETRY: usize = 10;
+/// Tets whose centroid is within GEPS h0 h of d = 0 are dropped from the boundary (seed: 0.1).
+const GEPS: f64 = 0.1;
+/// Nodes moved farther than this many local sizes since their last check get their faces
+/// re-checked for the Delaunay property (the seed's ttol, per node).
+const TTOL: f64 = 0.1;
+/// Density control runs every this many iterations.
+const DENSITY_EVERY: usize = 10;
+/// Split edges longer than this many current target lengths, collapse shorter than this.
+const SPLIT_ABOVE: f64 = 1.6;
+const COLLAPSE_BELOW: f64 = 0.5;
+/// The force loop stops on a plateau: the mean radius ratio, sampled every DENSITY_EVERY
+/// iterations, gained less than this over PLATEAU_WINDOWS samples in a row.
+const QUALITY_PLATEAU: f64 = 1e-5;
+const PLATEAU_WINDOWS: usize = 4;
+/// Tets below this dihedral quality ([`tq`]) are attacked by the sliver removal.
+const TQ_TARGET: f64 = 0.6;
+/// Boundary tets below this dihedral quality that no swap improves get an edge collapsed,
+/// when every new tet keeps a radius ratio above CAP_COLLAPSE_RR.
+const CAP_TQ: f64 = 0.2;
+const CAP_COLLAPSE_RR: f64 = 0.2;
+/// Rounds of smart Laplacian smoothing after the sliver removal.
+const LAPLACE_ROUNDS: usize = 3;
+/// Smoothing and perturbation may lower the star's mean radius ratio by at most this.
+const RR_SLACK: f64 = 0.01;
+/// Dihedral angle of the regular tetrahedron, degrees.
+const REGULAR_DIHEDRAL: f64 = 70.528_779_365_509_3;
+/// Chunk size of the deterministic parallel loops.
+const CHUNK: usize = 4096;
+
+const INTERIOR: u8 = 0;
+const BOUNDARY: u8 = 1;
+const FIXED: u8 = 2;
+
+/// Dihedral quality: 1 for the regular tet, 0 when a dihedral angle reaches 0 or 180 degrees;
+/// min(theta_min / 70.5, (180 - theta_max) / 109.5). Negative for inverted tets. This is the
+/// measure the targets are stated in (minimum and maximum dihedral angle).
+pub(crate) fn tq(p: [DVec3; 4]) -> f64 {
+    let v = crate::quality::tet_volume(p);
+    if v <= 0.0 || !v.is_finite() {
+        return -1.0;
+    }
+    // Outward face normals; the dihedral at the edge shared by faces i and j has cosine
+    // -n_i . n_j. Only the extreme cosines need an acos (this runs on every tet every step).
+    let n = |a: usize, b: usize, c: usize| (p[b] - p[a]).cross(p[c] - p[a]).normalize_or_zero();
+    let f = [n(1, 2, 3), n(0, 3, 2), n(0, 1, 3), n(0, 2, 1)];
+    let (mut cmax, mut cmin) = (-1.0f64, 1.0f64);
+    for i in 0..4 {
+        for j in i + 1..4 {
+            let c = -f[i].dot(f[j]);
+            cmax = cmax.max(c);
+            cmin = cmin.min(c);
+        }
+    }
+    let lo = cmax.clamp(-1.0, 1.0).acos().to_degrees();
+    let hi = cmin.clamp(-1.0, 1.0).acos().to_degrees();
+    (lo / REGULAR_DIHEDRAL).min((180.0 - hi) / (180.0 - REGULAR_DIHEDRAL))
+}
+
+/// Whether [`tq`] is below `thr`, without an acos: theta_min < thr 70.53 degrees or theta_max
+/// > 180 - thr 109.47 degrees, compared as cosines (the scan over every tet every step).
+fn tq_below(p: [DVec3; 4], cos_lo: f64, cos_hi: f64) -> bool {
+    if crate::quality::tet_volume(p) <= 0.0 {
+        return true;
+    }
+    let n = |a: usize, b: usize, c: usize| (p[b] - p[a]).cross(p[c] - p[a]).normalize_or_zero();
+    let f = [n(1, 2, 3), n(0, 3, 2), n(0, 1, 3), n(0, 2, 1)];
+    for i in 0..4 {
+        for j in i + 1..4 {
+            let c = -f[i].dot(f[j]);
+            if c > cos_lo || c < cos_hi {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// The cosine bounds of [`tq_below`] for a threshold.
+fn tq_cos_bounds(thr: f64) -> (f64, f64) {
+    ((thr * REGULAR_DIHEDRAL).to_radians().cos(), (180.0 - thr * (180.0 - REGULAR_DIHEDRAL)).to_radians().cos())
+}
+
+struct Ctx<'a> {
+    domain: &'a dyn Implicit3,
+    opts: &'a Options3,
+    projection: Projection,
+    h_floor: f64,
+    report: Report3,
+    rng: u64,
+    trace: bool,
+}
+
+impl Ctx<'_> {
+    /// Relative size normalised so that the smallest size inside is 1 (edge length h0).
+    fn h(&self, p: DVec3) -> Result<f64, Error> {
+        Ok(eval_h_floor(self.opts, p, self.h_floor)? / self.h_floor)
+    }
+    fn d(&self, p: DVec3) -> Result<f64, Error> {
+        eval_d(self.domain, p)
+    }
+    /// Projects onto d = 0; `Ok(None)` when the projection does not converge.
+    fn project(&self, p: DVec3) -> Result<Option<DVec3>, Error> {
+        match project3(self.domain, p, self.projection, 1e-9 * self.opts.h0, 20) {
+            Ok(q) => Ok(Some(q)),
+            Err(ProjectError::NonFinite { value }) => {
+                Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, p.z] })
+            }
+            Err(_) => Ok(None),
+        }
+    }
+    /// Approximate distance: d itself for distances, d / |grad d| otherwise.
+    fn approx_dist(&self, p: DVec3) -> Result<f64, Error> {
+        let d = self.d(p)?;
+        if self.domain.is_distance() {
+            Ok(d)
+        } else {
+            let g = self.domain.gradient(p).length();
+            Ok(if g > 0.0 && g.is_finite() { d / g } else { d })
+        }
+    }
+    /// SplitMix64 on the options' seed: the only randomness, so runs repeat bit for bit.
+    fn next_f64(&mut self) -> f64 {
+        self.rng = self.rng.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.rng;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+// ============================ input checks ============================
+
+fn eval_d(domain: &dyn Implicit3, p: DVec3) -> Result<f64, Error> {
+    let d = domain.value(p);
+    if d.is_finite() {
+        Ok(d)
+    } else {
+        Err(Error::NonFinite { what: "the distance function", value: d, at: [p.x, p.y, p.z] })
+    }
+}
+
+/// The relative size, raised to `floor` where it is not positive (outside the domain, where
+/// size functions need not make sense); non-finite values are errors.
+fn eval_h_floor(opts: &Options3, p: DVec3, floor: f64) -> Result<f64, Error> {
+    match &opts.size {
+        None => Ok(1.0),
+        Some(h) => {
+            let v = h(p);
+            if !v.is_finite() {
+                Err(Error::NonFinite { what: "the size function", value: v, at: [p.x, p.y, p.z] })
+            } else {
+                Ok(v.max(floor))
+            }
+        }
+    }
+}
+
+struct Survey {
+    estimated_tets: f64,
+    h_floor: f64,
+}
+
+/// Checks h0, the box, the fixed points, d and h on a sample grid, and the element estimate,
+/// before anything large is allocated.
+fn survey(domain: &dyn Implicit3, opts: &Options3) -> Result<Survey, Error> {
+    let h0 = opts.h0;
+    if !h0.is_finite() || h0 <= 0.0 {
+        return Err(Error::BadSize(format!("h0 must be positive and finite, got {h0}")));
+    }
+    let [lo, hi] = opts.bbox;
+    if !lo.is_finite() || !hi.is_finite() {
+        return Err(Error::BadBox(format!("the box {lo:?} - {hi:?} is not finite")));
+    }
+    if !(hi.x > lo.x && hi.y > lo.y && hi.z > lo.z) {
+        return Err(Error::BadBox(format!(
+            "the box {lo:?} - {hi:?} is empty or inverted: each max must exceed its min"
+        )));
+    }
+    for p in &opts.fixed {
+        if !p.is_finite() {
+            let bad = p.to_array().into_iter().find(|x| !x.is_finite()).unwrap_or(f64::NAN);
+            return Err(Error::BadCoordinate { what: "fixed point", value: bad });
+        }
+        if p.cmplt(lo).any() || p.cmpgt(hi).any() {
+            return Err(Error::Invalid(format!("fixed point {p:?} lies outside the box")));
+        }
+    }
+    if !opts.fscale.is_finite() || opts.fscale <= 0.0 || !opts.deltat.is_finite() || opts.deltat <= 0.0 {
+        return Err(Error::Invalid(format!(
+            "fscale and deltat must be positive and finite, got {} and {}",
+            opts.fscale, opts.deltat
+        )));
+    }
+    let ext = hi - lo;
+    let n = |e: f64| ((e / h0).ceil() as usize + 1).clamp(8, 96);
+    let (nx, ny, nz) = (n(ext.x), n(ext.y), n(ext.z));
+    let step = ext / DVec3::new((nx - 1) as f64, (ny - 1) as f64, (nz - 1) as f64);
+    let mut inside = 0usize;
+    let mut density = 0.0;
+    let mut h_floor = f64::INFINITY;
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                let p = lo + DVec3::new(i as f64, j as f64, k as f64) * step;
+                if eval_d(domain, p)? < 0.0 {
+                    let h = eval_h_floor(opts, p, f64::NEG_INFINITY)?;
+                    if h <= 0.0 {
+                        return Err(Error::BadSize(format!(
+                            "the size function is {h} at {p:?} inside the domain; it must be positive"
+                        )));
+                    }
+                    inside += 1;
+                    density += 1.0 / (h * h * h);
+                    h_floor = h_floor.min(h);
+                } else {
+                    eval_h_floor(opts, p, 0.0)?;
+                }
+            }
+        }
+    }
+    if inside == 0 {
+        // Cell centres once more before giving up (thin domains).
+        let mut found = false;
+        'outer: for k in 0..nz - 1 {
+            for j in 0..ny - 1 {
+                for i in 0..nx - 1 {
+                    let p = lo + (DVec3::new(i as f64, j as f64, k as f64) + 0.5) * step;
+                    if eval_d(domain, p)? < 0.0 {
+                        found = true;
+                        break 'outer;
+                    }
+                }
+            }
+        }
+        if !found {
+            return Err(Error::EmptyDomain(format!(
+                "the distance function is non-negative at every sample of the box {lo:?} - {hi:?}"
+            )));
+        }
+        inside = 1;
+        density = 1.0;
+        h_floor = 1.0;
+    }
+    let _ = inside;
+    let cell = step.x * step.y * step.z;
+    // About 6.4 tets per node in a good mesh; the BCC start has 2 nodes per (LATTICE h)^3.
+    let nodes = density * h_floor.powi(3) * cell * 2.0 / (LATTICE * h0).powi(3);
+    let estimated_tets = 6.4 * nodes;
+    if estimated_tets > opts.max_elements as f64 {
+        return Err(Error::TooManyElements { estimated: estimated_tets as u64, limit: opts.max_elements });
+    }
+    Ok(Survey { estimated_tets, h_floor })
+}
+
+// ============================ the run ============================
+
+pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, Error> {
+    let t0 = Instant::now();
+    let survey = survey(domain, opts)?;
+    let projection = match opts.projection {
+        Projection::Auto if domain.is_distance() => Projection::Exact,
+        Projection::Auto => Projection::FirstOrder,
+        p => p,
+    };
+    let mut ctx = Ctx {
+        domain,
+        opts,
+        projection,
+        h_floor: survey.h_floor,
+        report: Report3::default(),
+        rng: opts.seed ^ 0x7472_7573_736d_6533,
+        trace: std::env::var_os("TRUSSMESH_TRACE").is_some(),
+    };
+    let mut mesh = initial_mesh(&mut ctx, survey.estimated_tets)?;
+    if ctx.trace {
+        eprintln!(
+            "start: {} vertices, {} tets, {:.2} s",
+            mesh.num_vertices(),
+            mesh.num_tets(),
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    equilibrium(&mut ctx, &mut mesh)?;
+    settle_boundary(&mut ctx, &mut mesh)?;
+    for round in 0..opts.polish_rounds {
+        let changed = improve(&mut ctx, &mut mesh, round)?;
+        if ctx.trace {
+            let q = QualityStats3::of(&mesh);
+            eprintln!(
+                "polish {round}: {changed} changes, dihedral {:.2} .. {:.2}, rr mean {:.4}",
+                q.dihedral_min, q.dihedral_max, q.rr_mean
+            );
+        }
+        if changed == 0 {
+            break;
+        }
+    }
+    for round in 0..LAPLACE_ROUNDS {
+        let moved = smart_laplacian(&mut ctx, &mut mesh)?;
+        if ctx.trace {
+            let q = QualityStats3::of(&mesh);
+            eprintln!(
+                "laplace {round}: {moved} moves, dihedral {:.2} .. {:.2}, rr mean {:.4}",
+                q.dihedral_min, q.dihedral_max, q.rr_mean
+            );
+        }
+        if moved == 0 {
+            break;
+        }
+    }
+    if ctx.trace {
+        let mut w: Vec<(f64, TetId)> = mesh.tet_ids().map(|t| (tq(mesh.tet_points(t)), t)).collect();
+        w.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for &(q, t) in w.iter().take(6) {
+            let tx = mesh.tet(t);
+            let nb = tx.adj.iter().filter(|a| a.is_none()).count();
+            let tags: Vec<String> =
+                tx.v.iter()
+                    .map(|&v| format!("{:?}@{:.3}", mesh.tag(v), ctx.approx_dist(mesh.pos(v)).unwrap_or(0.0)))
+                    .collect();
+            eprintln!("worst tq {q:.3}: {nb} boundary faces, {:?} {:?}", tags, mesh.tet_points(t)[0]);
+        }
+    }
+    ctx.report.boundary_nodes_off = count_off(&ctx, &mesh)?;
+    if let Err(e) = mesh.validate(Level::Geometry) {
+        return Err(Error::Internal(format!("the finished mesh is invalid: {e}")));
+    }
+    let mut report = ctx.report;
+    report.seconds = t0.elapsed().as_secs_f64();
+    report.quality = QualityStats3::of(&mesh);
+    Ok(MeshOutput3 { mesh, report })
+}
+
+// ============================ initial mesh ============================
+
+/// BCC lattice points inside, thinned by the size function; Delaunay; carve; repair pinches.
+fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Error> {
+    let opts = ctx.opts;
+    let [lo, hi] = opts.bbox;
+    let a = LATTICE * opts.h0;
+    let n = ((hi - lo) / a).ceil().as_uvec3() + 1;
+    let uniform = opts.size.is_none();
+    let mut pts: Vec<DVec3> = Vec::with_capacity((estimate / 6.0) as usize + 16);
+    // Surface points: lattice points near d = 0 projected onto it, thinned greedily (in lattice
+    // order, so deterministically) to SURFACE_GAP lattice sides times h apart. The carved
+    // mesh's boundary then starts on the surface instead of a lattice row inside it.
+    let gap = SURFACE_GAP * a;
+    let mut grid: HashMap<[i64; 3], SmallVec<[DVec3; 4]>> = HashMap::new();
+    let cell = |p: DVec3| (p / gap).floor().as_i64vec3().to_array();
+    for k in 0..n.z {
+        for j in 0..n.y {
+            for i in 0..n.x {
+                for off in [0.0, 0.5] {
+                    let p = lo + (DVec3::new(i as f64, j as f64, k as f64) + off) * a;
+                    if p.cmpgt(hi).any() {
+                        continue;
+                    }
+                    let d = ctx.approx_dist(p)?;
+                    let h = if uniform { 1.0 } else { ctx.h(p)? };
+                    if d < -INTERIOR_DEPTH * a * h {
+                        // Seed 2.3: rejection with probability 1 - (h_min / h)^3.
+                        if !uniform && ctx.next_f64() > 1.0 / (h * h * h) {
+                            continue;
+                        }
+                        if opts.fixed.iter().any(|f| f.distance(p) < 0.5 * a * h) {
+                            continue;
+                        }
+                        pts.push(p);
+                    } else if d.abs() < a * h {
+                        let Some(q) = ctx.project(p)? else { continue };
+                        let hq = if uniform { 1.0 } else { ctx.h(q)? };
+                        let r = gap * hq;
+                        let c = cell(q);
+                        let reach = (r / gap).ceil() as i64;
+                        let mut near = false;
+                        'scan: for dz in -reach..=reach {
+                            for dy in -reach..=reach {
+                                for dx in -reach..=reach {
+                                    if let Some(list) = grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
+                                        if list.iter().any(|&x| x.distance(q) < r) {
+                                            near = true;
+                                            break 'scan;
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                        if near || opts.fixed.iter().any(|f| f.distance(q) < 0.5 * a * hq) {
+                            continue;
+                        }
+                        grid.entry(c).or_default().push(q);
+                        pts.push(q);
+                    }
+                }
+            }
+        }
+    }
+    pts.extend(opts.fixed.iter().copied());
+    if pts.len() < 4 {
+        return Err(Error::EmptyDomain(format!(
+            "only {} lattice points fall inside the domain at h0 = {}: h0 is too large for it",
+            pts.len(),
+            opts.h0
+        )));
+    }
+    let (del, _) = TetMesh::delaunay(&pts)?;
+    if del.num_tets() as u64 > opts.max_elements {
+        return Err(Error::TooManyElements { estimated: del.num_tets() as u64, limit: opts.max_elements });
+    }
+    let (points, tets, _, _) = del.to_arrays();
+    drop(del);
+    // Seed: keep tets whose centroid is inside by more than geps = 0.1 h0.
+    let geps = 0.1 * opts.h0;
+    let keep: Vec<bool> = tets
+        .par_iter()
+        .with_min_len(CHUNK)
+        .map(|t| {
+            let c = (points[t[0]] + points[t[1]] + points[t[2]] + points[t[3]]) / 4.0;
+            ctx.approx_dist(c).map(|d| d < -geps)
+        })
+        .collect::<Result<_, Error>>()?;
+    let mut tets: Vec<[usize; 4]> = tets.into_iter().zip(keep).filter(|x| x.1).map(|x| x.0).collect();
+    let mut mesh = repair_pinches(&points, &mut tets)?;
+    mesh.tag_boundary_vertices();
+    for v in mesh.vertex_ids().collect::<Vec<_>>() {
+        if opts.fixed.contains(&mesh.pos(v)) {
+            mesh.set_tag(v, VertexTag::Fixed);
+        }
+    }
+    Ok(mesh)
+}
+
+/// Builds the mesh from the kept tets, dropping the smaller side wherever tets meet only at a
+/// vertex or only along an edge, so that the boundary is a 2-manifold.
+fn repair_pinches(points: &[DVec3], tets: &mut Vec<[usize; 4]>) -> Result<TetMesh, Error> {
+    for _round in 0..64 {
+        if tets.is_empty() {
+            return Err(Error::EmptyDomain("no tetrahedron has its centroid inside the domain".into()));
+        }
+        // Compact the used points.
+        let mut map = vec![usize::MAX; points.len()];
+        let mut used = Vec::new();
+        for t in tets.iter() {
+            for &i in t {
+                if map[i] == usize::MAX {
+                    map[i] = used.len();
+                    used.push(points[i]);
+                }
+            }
+        }
+        let local: Vec<[usize; 4]> = tets.iter().map(|t| t.map(|i| map[i])).collect();
+        let (m, ids) = TetMesh::from_arrays(&used, &local)?;
+        let tet_ids: Vec<TetId> = m.tet_ids().collect();
+        let mut index: SecondaryMap<TetId, usize> = SecondaryMap::with_capacity(tet_ids.len());
+        for (k, &t) in tet_ids.iter().enumerate() {
+            index.insert(t, k);
+        }
+        let mut count = vec![0u32; used.len()];
+        for t in &local {
+            for &i in t {
+                count[i] += 1;
+            }
+        }
+        let mut drop = vec![false; local.len()];
+        let mut any = false;
+        for (i, &v) in ids.iter().enumerate() {
+            let star = m.vertex_tets(v);
+            if star.len() < count[i] as usize {
+                any = true;
+                let small_is_walked = 2 * star.len() <= count[i] as usize;
+                for (k, t) in local.iter().enumerate() {
+                    if t.contains(&i) && (star.iter().any(|&s| index[s] == k) == small_is_walked) {
+                        drop[k] = true;
+                    }
+                }
+            }
+        }
+        if !any {
+            // Edges with more than two boundary faces: tets meeting only along the edge.
+            let mut bcount: HashMap<(TVertexId, TVertexId), (u32, TetId, usize)> = HashMap::new();
+            for (t, f) in m.boundary_faces() {
+                let fv = m.face_vertices(t, f);
+                for k in 0..3 {
+                    let (x, y) = (fv[k], fv[(k + 1) % 3]);
+                    let e = bcount.entry((x.min(y), x.max(y))).or_insert((0, t, f));
+                    e.0 += 1;
+                }
+            }
+            let mut bad: Vec<((TVertexId, TVertexId), TetId)> =
+                bcount.into_iter().filter(|(_, c)| c.0 > 2).map(|(e, c)| (e, c.1)).collect();
+            bad.sort();
+            for ((x, y), t) in bad {
+                any = true;
+                let (i, j) = (m.local_index(t, x).expect("edge"), m.local_index(t, y).expect("edge"));
+                let shell = m.edge_shell(t, i, j);
+                let all: Vec<usize> = (0..local.len())
+                    .filter(|&k| {
+                        let tv = tet_ids[k];
+                        m.tet(tv).v.contains(&x) && m.tet(tv).v.contains(&y)
+                    })
+                    .collect();
+                let small_is_walked = 2 * shell.tets.len() <= all.len();
+                for k in all {
+                    if shell.tets.iter().any(|&s| index[s] == k) == small_is_walked {
+                        drop[k] = true;
+                    }
+                }
+            }
+        }
+        if !any {
+            return Ok(m);
+        }
+        let mut k = 0;
+        tets.retain(|_| {
+            k += 1;
+            !drop[k - 1]
+        });
+    }
+    Err(Error::Internal("the carved start mesh keeps pinched vertices".into()))
+}
+
+// ============================ snapshot ============================
+
+/// Compact arrays of the mesh for the force loop, rebuilt when the topology changes.
+struct Snapshot {
+    ids: Vec<TVertexId>,
+    kind: Vec<u8>,
+    tets: Vec<[u32; 4]>,
+    tet_ids: Vec<TetId>,
+    adj_start: Vec<u32>,
+    adj: Vec<u32>,
+}
+
+impl Snapshot {
+    fn build(m: &TetMesh) -> Snapshot {
+        let mut index: SecondaryMap<TVertexId, u32> = SecondaryMap::with_capacity(m.num_vertices());
+        let mut ids = Vec::with_capacity(m.num_vertices());
+        let mut kind = Vec::with_capacity(m.num_vertices());
+        for v in m.vertex_ids() {
+            index.insert(v, ids.len() as u32);
+            ids.push(v);
+            kind.push(match m.tag(v) {
+                VertexTag::Fixed => FIXED,
+                VertexTag::Boundary => BOUNDARY,
+                _ => INTERIOR,
+            });
+        }
+        let mut tets = Vec::with_capacity(m.num_tets());
+        let mut tet_ids = Vec::with_capacity(m.num_tets());
+        for t in m.tet_ids() {
+            tets.push(m.tet(t).v.map(|x| index[x]));
+            tet_ids.push(t);
+        }
+        // Vertex -> tets by counting, then each vertex's neighbours sorted locally (in
+        // parallel, deterministic): no global sort of the 12 T directed edges.
+        let n = ids.len();
+        let mut start = vec![0u32; n + 1];
+        for t in &tets {
+            for &i in t {
+                start[i as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut inc = vec![0u32; 4 * tets.len()];
+        for (k, t) in tets.iter().enumerate() {
+            for &i in t {
+                inc[fill[i as usize] as usize] = k as u32;
+                fill[i as usize] += 1;
+            }
+        }
+        let lists: Vec<SmallVec<[u32; 24]>> = (0..n)
+            .into_par_iter()
+            .with_min_len(256)
+            .map(|i| {
+                let mut l: SmallVec<[u32; 24]> = SmallVec::new();
+                for &k in &inc[start[i] as usize..start[i + 1] as usize] {
+                    for &j in &tets[k as usize] {
+                        if j as usize != i {
+                            l.push(j);
+                        }
+                    }
+                }
+                l.sort_unstable();
+                l.dedup();
+                l
+            })
+            .collect();
+        let mut adj_start = vec![0u32; n + 1];
+        for i in 0..n {
+            adj_start[i + 1] = adj_start[i] + lists[i].len() as u32;
+        }
+        let adj = lists.into_iter().flatten().collect();
+        Snapshot { ids, kind, tets, tet_ids, adj_start, adj }
+    }
+}
+
+/// Deterministic parallel sum of pairs: fixed chunks, partial sums added in order.
+fn det_sum(n: usize, f: impl Fn(usize) -> (f64, f64) + Sync) -> (f64, f64) {
+    let parts: Vec<(f64, f64)> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut s = (0.0, 0.0);
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let x = f(i);
+                s.0 += x.0;
+                s.1 += x.1;
+            }
+            s
+        })
+        .collect();
+    parts.into_iter().fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1))
+}
+
+fn write_back(m: &mut TetMesh, snap: &Snapshot, p: &[DVec3]) {
+    // Vertices removed since the snapshot (a tent dropped from the boundary) are skipped.
+    for (k, &v) in snap.ids.iter().enumerate() {
+        if m.contains_vertex(v) {
+            m.set_pos_unchecked(v, p[k]);
+        }
+    }
+}
+
+fn mean_rr(snap: &Snapshot, p: &[DVec3]) -> f64 {
+    let (s, n) = det_sum(snap.tets.len(), |k| {
+        let t = snap.tets[k];
+        (crate::quality::tet_radius_ratio(t.map(|i| p[i as usize])), 1.0)
+    });
+    s / n.max(1.0)
+}
+
+/// Halves the step of every vertex of a tet that would not be positive (exact), up to six
+/// times, then puts those vertices back; repeats until every tet is positive. The old
+/// positions are valid, so this ends.
+fn guard_inversions(snap: &Snapshot, old: &[DVec3], newp: &mut [DVec3]) {
+    let mut halvings = vec![0u8; old.len()];
+    loop {
+        let bad: Vec<usize> = (0..snap.tets.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .filter(|&k| {
+                let t = snap.tets[k];
+                orient3d(newp[t[0] as usize], newp[t[1] as usize], newp[t[2] as usize], newp[t[3] as usize])
+                    != Sign::Positive
+            })
+            .collect();
+        if bad.is_empty() {
+            return;
+        }
+        let mut hit: Vec<u32> = bad.iter().flat_map(|&k| snap.tets[k]).collect();
+        hit.sort_unstable();
+        hit.dedup();
+        for i in hit {
+            let i = i as usize;
+            if newp[i] == old[i] {
+                continue;
+            }
+            halvings[i] += 1;
+            newp[i] = if halvings[i] > 6 { old[i] } else { (old[i] + newp[i]) * 0.5 };
+        }
+    }
+}
+
+// ============================ force equilibrium ============================
+
+fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
+    let opts = ctx.opts;
+    let h0 = opts.h0;
+    let mut snap = Snapshot::build(m);
+    let mut p: Vec<DVec3> = snap.ids.iter().map(|&v| m.pos(v)).collect();
+    let mut pold = p.clone();
+    let uniform = opts.size.is_none();
+    let sizes = |ctx: &Ctx, p: &[DVec3]| -> Result<Vec<f64>, Error> {
+        if uniform {
+            Ok(vec![1.0; p.len()])
+        } else {
+            p.par_iter().with_min_len(256).map(|&x| ctx.h(x)).collect()
+        }
+    };
+    let mut hv = sizes(ctx, &p)?;
+    let (mut last_q, mut stall, mut converged, mut iter) = (0.0, 0, false, 0);
+    let mut tried: SecondaryMap<TetId, usize> = SecondaryMap::new();
+    while iter < opts.max_iter {
+        iter += 1;
+        if let Some(cb) = &opts.progress {
+            cb(iter, opts.max_iter);
+        }
+        // Seed eq. 2.6 in 3-D: L0 = h_bar Fscale (sum L^3 / sum h_bar^3)^(1/3).
+        let (sl, sh) = det_sum(p.len(), |i| {
+            let mut s = (0.0, 0.0);
+            for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                let j = snap.adj[k as usize] as usize;
+                let hb = 0.5 * (hv[i] + hv[j]);
+                s.0 += p[i].distance(p[j]).powi(3);
+                s.1 += hb * hb * hb;
+            }
+            s
+        });
+        let unit = (sl / sh).cbrt();
+        let scale = opts.fscale * unit;
+        let dt = opts.deltat;
+        let mut newp: Vec<DVec3> = (0..p.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .map(|i| {
+                if snap.kind[i] == FIXED {
+                    return p[i];
+                }
+                let mut f = DVec3::ZERO;
+                for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                    let j = snap.adj[k as usize] as usize;
+                    let d = p[i] - p[j];
+                    let l = d.length();
+                    let l0 = 0.5 * (hv[i] + hv[j]) * scale;
+                    if l > 0.0 && l0 > l {
+                        f += d * ((l0 - l) / l);
+                    }
+                }
+                p[i] + dt * f
+            })
+            .collect();
+        // Boundary nodes back onto d = 0 (seed step 7, applied to every boundary node: the
+        // boundary is the carved mesh's, not the set of nodes outside).
+        let fixes: Vec<(usize, DVec3)> = (0..p.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .filter(|&i| snap.kind[i] == BOUNDARY)
+            .map(|i| Ok((i, ctx.project(newp[i])?.unwrap_or(p[i]))))
+            .collect::<Result<_, Error>>()?;
+        for (i, q) in fixes {
+            newp[i] = q;
+        }
+        guard_inversions(&snap, &p, &mut newp);
+        let max_move = (0..p.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .filter(|&i| snap.kind[i] == INTERIOR)
+            .map(|i| newp[i].distance(p[i]) / (h0 * hv[i]))
+            .reduce(|| 0.0, f64::max);
+        p = newp;
+        // Connectivity: faces around nodes that moved farther than TTOL since their last check
+        // get the exact insphere test, and Lawson flips repair them.
+        let mut topo_changed = false;
+        let far: Vec<bool> = (0..p.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .map(|i| p[i].distance(pold[i]) > TTOL * h0 * hv[i])
+            .collect();
+        if far.iter().any(|&x| x) {
+            let mut stack: Vec<(TetId, usize)> = Vec::new();
+            for (k, t) in snap.tets.iter().enumerate() {
+                if t.iter().any(|&i| far[i as usize]) {
+                    for f in 0..4 {
+                        stack.push((snap.tet_ids[k], f));
+                    }
+                }
+            }
+            for i in 0..p.len() {
+                if far[i] {
+                    pold[i] = p[i];
+                }
+            }
+            write_back(m, &snap, &p);
+            let flips = m.lawson(stack);
+            ctx.report.flips += flips;
+            topo_changed |= flips > 0;
+        }
+        // Quality-driven swaps: the tets below SWAP_TQ, worst first, get the best edge removal
+        // or 2-3 flip that raises the local worst quality (Lawson alone stalls in 3-D).
+        {
+            let (cl, ch) = tq_cos_bounds(SWAP_TQ);
+            let mut bad: Vec<(f64, usize)> = (0..snap.tets.len())
+                .into_par_iter()
+                .with_min_len(CHUNK)
+                .filter_map(|k| {
+                    let q = snap.tets[k].map(|i| p[i as usize]);
+                    tq_below(q, cl, ch).then(|| (tq(q), k))
+                })
+                .collect();
+            if !bad.is_empty() {
+                bad.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+                write_back(m, &snap, &p);
+                for (_, k) in bad {
+                    let t = snap.tet_ids[k];
+                    // A tet no swap could improve waits SWAP_RETRY iterations before the next try.
+                    if tried.get(t).is_some_and(|&at| iter < at + SWAP_RETRY) {
+                        continue;
+                    }
+                    if m.contains_tet(t) {
+                        if try_swaps(ctx, m, t)? {
+                            topo_changed = true;
+                        } else {
+                            tried.insert(t, iter);
+                        }
+                    }
+                }
+            }
+        }
+        // Tets squashed against the boundary (centroid within geps of d = 0) leave the mesh, as
+        // the seed's retriangulation drops them: their interior apex joins the boundary.
+        let flat: Vec<usize> = (0..snap.tets.len())
+            .into_par_iter()
+            .with_min_len(CHUNK)
+            .filter(|&k| snap.tets[k].iter().filter(|&&i| snap.kind[i as usize] != INTERIOR).count() >= 3)
+            .map(|k| {
+                let t = snap.tets[k];
+                let c = (p[t[0] as usize] + p[t[1] as usize] + p[t[2] as usize] + p[t[3] as usize]) / 4.0;
+                let hc = t.iter().map(|&i| hv[i as usize]).sum::<f64>() / 4.0;
+                Ok((k, ctx.approx_dist(c)? > -GEPS * h0 * hc))
+            })
+            .collect::<Result<Vec<_>, Error>>()?
+            .into_iter()
+            .filter(|x| x.1)
+            .map(|x| x.0)
+            .collect();
+        if !flat.is_empty() {
+            write_back(m, &snap, &p);
+            for k in flat {
+                if m.contains_tet(snap.tet_ids[k]) && m.remove_boundary_tet(snap.tet_ids[k]).is_ok() {
+                    ctx.report.removed += 1;
+                    topo_changed = true;
+                }
+            }
+        }
+        if iter % DENSITY_EVERY == 0 {
+            write_back(m, &snap, &p);
+            topo_changed |= surface_flips(ctx, m)? > 0;
+            topo_changed |= density_control(ctx, m, &snap, &p, &hv, unit)?;
+            // Boundary nodes the step control kept off d = 0: the tets in the way are swapped
+            // away or their vertices smoothed, then the node moves.
+            let off: Vec<usize> = (0..p.len())
+                .into_par_iter()
+                .with_min_len(CHUNK)
+                .filter(|&i| snap.kind[i] == BOUNDARY)
+                .map(|i| Ok((i, ctx.approx_dist(p[i])?.abs() > 1e-3 * h0)))
+                .collect::<Result<Vec<_>, Error>>()?
+                .into_iter()
+                .filter(|x| x.1)
+                .map(|x| x.0)
+                .collect();
+            for i in off {
+                let v = snap.ids[i];
+                if !m.contains_vertex(v) {
+                    continue;
+                }
+                if let Some(q) = ctx.project(m.pos(v))? {
+                    clear_the_way(ctx, m, v, q)?;
+                    topo_changed = true;
+                }
+            }
+        }
+        if topo_changed {
+            // Density control may grow the mesh past what the survey estimated.
+            if m.num_tets() as u64 > opts.max_elements {
+                return Err(Error::TooManyElements { estimated: m.num_tets() as u64, limit: opts.max_elements });
+            }
+            snap = Snapshot::build(m);
+            p = snap.ids.iter().map(|&v| m.pos(v)).collect();
+            pold = p.clone();
+            hv = sizes(ctx, &p)?;
+        } else if !uniform && iter % DENSITY_EVERY == 0 {
+            hv = sizes(ctx, &p)?;
+        }
+        if max_move < opts.dptol && iter > DENSITY_EVERY {
+            converged = true;
+            ctx.report.stop_reason = format!("nodes moved less than dptol = {} (relative to h)", opts.dptol);
+            break;
+        }
+        if iter % DENSITY_EVERY == 0 {
+            let q = mean_rr(&snap, &p);
+            if ctx.trace {
+                write_back(m, &snap, &p);
+                let mut nd = 0;
+                let (mut si, mut ni, mut sb, mut nb) = (0.0, 0, 0.0, 0);
+                let mut bins = [0usize; 6];
+                for (k, t) in snap.tets.iter().enumerate() {
+                    let tt = snap.tet_ids[k];
+                    for f in 0..4 {
+                        if !m.is_locally_delaunay(tt, f) {
+                            nd += 1;
+                        }
+                    }
+                    let q = crate::quality::tet_radius_ratio(t.map(|i| p[i as usize]));
+                    let qq = tq(t.map(|i| p[i as usize]));
+                    bins[((qq.max(0.0) * 10.0) as usize).min(5)] += 1;
+                    if t.iter().all(|&i| snap.kind[i as usize] == INTERIOR) {
+                        si += q;
+                        ni += 1;
+                    } else {
+                        sb += q;
+                        nb += 1;
+                    }
+                }
+                eprintln!(
+                    "   non-delaunay faces {nd}, interior rr {:.4} ({ni}), boundary rr {:.4} ({nb}), tq bins {bins:?}",
+                    si / ni as f64,
+                    sb / nb as f64
+                );
+                eprintln!(
+                    "iter {iter}: rr mean {q:.5}, max move {max_move:.2e}, {} vertices, {} tets, flips {} splits {} collapses {} removed {}",
+                    p.len(),
+                    snap.tets.len(),
+                    ctx.report.flips,
+                    ctx.report.splits,
+                    ctx.report.collapses,
+                    ctx.report.removed
+                );
+            }
+            if q - last_q < QUALITY_PLATEAU {
+                stall += 1;
+                if stall >= PLATEAU_WINDOWS {
+                    converged = true;
+                    ctx.report.stop_reason = "mean quality stopped improving".into();
+                    break;
+                }
+            } else {
+                stall = 0;
+            }
+            last_q = f64::max(last_q, q);
+        }
+    }
+    write_back(m, &snap, &p);
+    ctx.report.iterations = iter;
+    ctx.report.converged = converged;
+    if !converged {
+        ctx.report.stop_reason =
+            format!("iteration cap of {} reached; the mesh is the last valid state", opts.max_iter);
+    }
+    Ok(())
+}
+
+// ============================ density control ============================
+
+/// Splits edges longer than SPLIT_ABOVE and collapses edges shorter than COLLAPSE_BELOW times
+/// the current target (the mesh's own scale `unit` times h), one change per neighbourhood.
+fn density_control(
+    ctx: &mut Ctx,
+    m: &mut TetMesh,
+    snap: &Snapshot,
+    p: &[DVec3],
+    hv: &[f64],
+    unit: f64,
+) -> Result<bool, Error> {
+    let mut long: Vec<(f64, u32, u32)> = Vec::new();
+    let mut short: Vec<(f64, u32, u32)> = Vec::new();
+    for i in 0..p.len() {
+        for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+            let j = snap.adj[k as usize] as usize;
+            if j <= i {
+                continue;
+            }
+            let r = p[i].distance(p[j]) / (unit * 0.5 * (hv[i] + hv[j]));
+            if r > SPLIT_ABOVE {
+                long.push((r, i as u32, j as u32));
+            } else if r < COLLAPSE_BELOW {
+                short.push((r, i as u32, j as u32));
+            }
+        }
+    }
+    let mut changed = false;
+    let mut touched = vec![false; p.len()];
+    long.sort_by(|x, y| y.0.total_cmp(&x.0).then((x.1, x.2).cmp(&(y.1, y.2))));
+    for (_, i, j) in long {
+        let (a, b) = (snap.ids[i as usize], snap.ids[j as usize]);
+        if touched[i as usize] || touched[j as usize] {
+            continue;
+        }
+        let Some(t) = m.find_edge(a, b) else { continue };
+        let e = edge_index(m, t, a, b);
+        let mid = (m.pos(a) + m.pos(b)) * 0.5;
+        let boundary = !m.edge_shell(t, EDGE_VERTICES[e][0], EDGE_VERTICES[e][1]).closed;
+        let mut at = mid;
+        if boundary {
+            if let Some(q) = ctx.project(mid)? {
+                at = q;
+            }
+        }
+        let split = m.split_edge(t, e, at).or_else(|_| m.split_edge(t, e, mid));
+        if let Ok(v) = split {
+            ctx.report.splits += 1;
+            changed = true;
+            touched[i as usize] = true;
+            touched[j as usize] = true;
+            ctx.report.flips += lawson_around(m, v);
+        }
+    }
+    short.sort_by(|x, y| x.0.total_cmp(&y.0).then((x.1, x.2).cmp(&(y.1, y.2))));
+    for (_, i, j) in short {
+        if touched[i as usize] || touched[j as usize] {
+            continue;
+        }
+        let (a, b) = (snap.ids[i as usize], snap.ids[j as usize]);
+        if !m.contains_vertex(a) || !m.contains_vertex(b) {
+            continue;
+        }
+        let Some(t) = m.find_edge(a, b) else { continue };
+        let e = edge_index(m, t, a, b);
+        // Interior vertices merge into the other end; two interior ends meet at the midpoint.
+        let (pa, pb) = (m.pos(a), m.pos(b));
+        let both_interior = m.tag(a) == VertexTag::Interior && m.tag(b) == VertexTag::Interior;
+        let [li, _] = EDGE_VERTICES[e];
+        let a_first = m.tet(t).v[li] == a;
+        let mut done = None;
+        for reverse in [false, true] {
+            // `reverse == false` merges the edge's first local vertex into the second.
+            let (gone, stay) = if a_first != reverse { (a, b) } else { (b, a) };
+            let _ = gone;
+            let pos = if both_interior { (pa + pb) * 0.5 } else { m.pos(stay) };
+            if let Ok(plan) = m.check_collapse(t, e, reverse, pos) {
+                if plan.min_quality > 0.05 {
+                    let (made, _) = m.apply_patch(plan);
+                    done = made.first().copied();
+                    break;
+                }
+            }
+        }
+        if let Some(t) = done {
+            ctx.report.collapses += 1;
+            changed = true;
+            touched[i as usize] = true;
+            touched[j as usize] = true;
+            let v = m.tet(t).v[0];
+            ctx.report.flips += lawson_around(m, v);
+        }
+    }
+    Ok(changed)
+}
+
+/// Local index (0..6) of edge a-b in tet t.
+fn edge_index(m: &TetMesh, t: TetId, a: TVertexId, b: TVertexId) -> usize {
+    let (i, j) = (m.local_index(t, a).expect("edge"), m.local_index(t, b).expect("edge"));
+    let (i, j) = (i.min(j), i.max(j));
+    EDGE_VERTICES.iter().position(|&[x, y]| x == i && y == j).expect("edge")
+}
+
+/// Lawson flips on the faces of the star of `v`.
+fn lawson_around(m: &mut TetMesh, v: TVertexId) -> usize {
+    let stack: Vec<(TetId, usize)> = m.vertex_tets(v).iter().flat_map(|&t| (0..4).map(move |f| (t, f))).collect();
+    m.lawson(stack)
+}
+
+// ============================ surface flips ============================
+
+/// Boundary edges whose two boundary triangles fail the planar Delaunay test (opposite angles
+/// summing past 180 degrees) are flipped when the tets allow it; returns the count.
+fn surface_flips(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
+    let mut faces: HashMap<(TVertexId, TVertexId), TVertexId> = HashMap::new();
+    let bfaces = m.boundary_faces();
+    for &(t, f) in &bfaces {
+        let v = m.face_vertices(t, f);
+        for k in 0..3 {
+            faces.insert((v[k], v[(k + 1) % 3]), v[(k + 2) % 3]);
+        }
+    }
+    let mut cands: Vec<(f64, TVertexId, TVertexId)> = Vec::new();
+    for (&(a, b), &c) in &faces {
+        if a > b {
+            continue;
+        }
+        let Some(&d) = faces.get(&(b, a)) else { continue };
+        let (pa, pb, pc, pd) = (m.pos(a), m.pos(b), m.pos(c), m.pos(d));
+        let ang = |x: DVec3, y: DVec3, z: DVec3| (y - x).angle_between(z - x);
+        let s = ang(pc, pa, pb) + ang(pd, pa, pb);
+        if s > std::f64::consts::PI + 1e-3 {
+            cands.push((s, a, b));
+        }
+    }
+    cands.sort_by(|x, y| y.0.total_cmp(&x.0).then((x.1, x.2).cmp(&(y.1, y.2))));
+    let mut n = 0;
+    for (_, a, b) in cands {
+        let Some(s) = m.edge_shell_of(a, b) else { continue };
+        if s.closed {
+            continue;
+        }
+        if let Some((plan, q)) = ring_patch(ctx, m, &s, true)? {
+            if q > 0.05 {
+                m.apply_patch(plan);
+                n += 1;
+            }
+        }
+    }
+    ctx.report.flips += n;
+    Ok(n)
+}
+
+/// Removal of the edge of shell `s` (interior or, with `allow_boundary`, boundary): the ring
+/// polygon is triangulated by dynamic programming maximising the worst [`tq`] (Shewchuk's
+/// edge removal); each ring triangle makes one tet with each end. For a boundary edge the ring
+/// is open, its two ends become the new boundary edge, which must stay near d = 0 (the
+/// flip may not cut across a sharp edge of the domain). Returns the patch and its worst tq.
+#[allow(clippy::needless_range_loop)]
+fn ring_patch(
+    ctx: &Ctx,
+    m: &TetMesh,
+    s: &crate::topology::EdgeShell,
+    allow_boundary: bool,
+) -> Result<Option<(TetPatch, f64)>, Error> {
+    let n = s.ring.len();
+    if !(3..=12).contains(&n) || (!s.closed && !allow_boundary) {
+        return Ok(None);
+    }
+    let label = m.tet(s.tets[0]).label;
+    if s.tets.iter().any(|&t| m.tet(t).label != label) {
+        return Ok(None);
+    }
+    if !s.closed {
+        let (p0, pn) = (m.pos(s.ring[0]), m.pos(s.ring[n - 1]));
+        let dn = ctx.approx_dist((p0 + pn) * 0.5)?.abs();
+        let dold = ctx.approx_dist((m.pos(s.a) + m.pos(s.b)) * 0.5)?.abs();
+        if dn > 2.0 * dold + 0.02 * p0.distance(pn) {
+            return Ok(None);
+        }
+    }
+    let (pa, pb) = (m.pos(s.a), m.pos(s.b));
+    let pc: SmallVec<[DVec3; 12]> = s.ring.iter().map(|&c| m.pos(c)).collect();
+    let tri_q = |i: usize, j: usize, k: usize| -> f64 {
+        let (ci, cj, ck) = (pc[i], pc[j], pc[k]);
+        if orient3d(pa, ci, cj, ck) != Sign::Positive || orient3d(ci, cj, ck, pb) != Sign::Positive {
+            return -1.0;
+        }
+        tq([pa, ci, cj, ck]).min(tq([ci, cj, ck, pb]))
+    };
+    let mut best = [[f64::INFINITY; 12]; 12];
+    let mut choice = [[0usize; 12]; 12];
+    for len in 2..n {
+        for i in 0..n - len {
+            let j = i + len;
+            let mut b = -1.0;
+            for k in i + 1..j {
+                let q = tri_q(i, k, j);
+                if q < 0.0 {
+                    continue;
+                }
+                let left = if k > i + 1 { best[i][k] } else { f64::INFINITY };
+                let right = if j > k + 1 { best[k][j] } else { f64::INFINITY };
+                let v = q.min(left).min(right);
+                if v > b {
+                    b = v;
+                    choice[i][j] = k;
+                }
+            }
+            best[i][j] = b;
+        }
+    }
+    let worst = best[0][n - 1];
+    if worst < 0.0 {
+        return Ok(None);
+    }
+    let mut new: SmallVec<[([TVertexId; 4], u32); 16]> = SmallVec::new();
+    let mut stack: SmallVec<[(usize, usize); 12]> = SmallVec::new();
+    stack.push((0, n - 1));
+    let mut diagonals: SmallVec<[(usize, usize); 12]> = SmallVec::new();
+    while let Some((i, j)) = stack.pop() {
+        if j < i + 2 {
+            continue;
+        }
+        let k = choice[i][j];
+        let (ci, ck, cj) = (s.ring[i], s.ring[k], s.ring[j]);
+        new.push(([s.a, ci, ck, cj], label));
+        new.push(([ci, ck, cj, s.b], label));
+        stack.push((i, k));
+        stack.push((k, j));
+        if k > i + 1 {
+            diagonals.push((i, k));
+        }
+        if j > k + 1 {
+            diagonals.push((k, j));
+        }
+    }
+    if !s.closed {
+        diagonals.push((0, n - 1));
+    }
+    for &(i, j) in &diagonals {
+        let ring_edge = s.closed && ((j + 1) % n == i || (i + 1) % n == j);
+        if !ring_edge && m.find_edge(s.ring[i], s.ring[j]).is_some() {
+            return Ok(None);
+        }
+    }
+    if n == 3 && s.closed && m.has_face(s.ring[0], s.ring[1], s.ring[2]) {
+        return Ok(None);
+    }
+    Ok(Some((TetPatch::raw(s.tets.iter().copied().collect(), new, None), worst)))
+}
+
+// ============================ boundary ============================
+
+/// Every boundary node onto d = 0 where the tets allow it (checked moves).
+fn settle_boundary(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
+    let vs: Vec<TVertexId> = m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Boundary).collect();
+    for v in vs {
+        if !m.contains_vertex(v) {
+            continue;
+        }
+        let p = m.pos(v);
+        if ctx.trace && ctx.approx_dist(p)?.abs() > 1e-3 * ctx.opts.h0 {
+            let q = ctx.project(p)?;
+            eprintln!(
+                "settle: off vertex at {p:?}, d {:.4}, projection {q:?}, relocate ok {:?}",
+                ctx.approx_dist(p)?,
+                q.map(|q| m.check_relocate(v, q))
+            );
+        }
+        if let Some(q) = ctx.project(p)? {
+            if q != p
+                && m.relocate(v, q).is_err()
+                && !clear_the_way(ctx, m, v, q)?
+                && !merge_into_boundary_neighbour(ctx, m, v)?
+            {
+                // Part of the way at least.
+                for f in [0.5, 0.75, 0.9] {
+                    if m.relocate(v, p.lerp(q, f)).is_ok() {
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The tets that would invert with `v` at `q` are swapped away or their other vertices
+/// smoothed, a few rounds, until `v` can move to `q`.
+fn clear_the_way(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId, q: DVec3) -> Result<bool, Error> {
+    for _ in 0..4 {
+        let blocking: Vec<TetId> = m
+            .vertex_tets(v)
+            .into_iter()
+            .filter(|&t| {
+                let p = m.tet(t).v.map(|w| if w == v { q } else { m.pos(w) });
+                orient3d(p[0], p[1], p[2], p[3]) != Sign::Positive
+            })
+            .collect();
+        if blocking.is_empty() {
+            break;
+        }
+        for t in blocking {
+            if !m.contains_tet(t) {
+                continue;
+            }
+            let nb = m.tet(t).adj.iter().filter(|a| a.is_none()).count();
+            if nb >= 2 && m.remove_boundary_tet(t).is_ok() {
+                ctx.report.removed += 1;
+                continue;
+            }
+            if try_swaps(ctx, m, t)? {
+                continue;
+            }
+            for w in m.tet(t).v {
+                if w != v {
+                    smooth_vertex(ctx, m, w)?;
+                }
+            }
+        }
+        if !m.contains_vertex(v) {
+            return Ok(true);
+        }
+        if m.relocate(v, q).is_ok() {
+            return Ok(true);
+        }
+    }
+    Ok(m.contains_vertex(v) && m.relocate(v, q).is_ok())
+}
+
+/// A boundary node that cannot reach d = 0 is collapsed along a boundary edge into the
+/// neighbour that leaves the best worst radius ratio (seed: such nodes are crowded ones).
+fn merge_into_boundary_neighbour(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, Error> {
+    let mut best: Option<(f64, TetPatch)> = None;
+    for w in m.vertex_neighbours(v) {
+        if !matches!(m.tag(w), VertexTag::Boundary | VertexTag::Fixed) {
+            continue;
+        }
+        let Some(t) = m.find_edge(v, w) else { continue };
+        let e = edge_index(m, t, v, w);
+        let reverse = m.tet(t).v[EDGE_VERTICES[e][0]] != v;
+        if let Ok(plan) = m.check_collapse(t, e, reverse, m.pos(w)) {
+            if plan.min_quality > 0.0 && best.as_ref().map_or(true, |b| plan.min_quality > b.0) {
+                best = Some((plan.min_quality, plan));
+            }
+        }
+    }
+    if let Some((_, plan)) = best {
+        m.apply_patch(plan);
+        ctx.report.collapses += 1;
+        return Ok(true);
+    }
+    Ok(false)
+}
+
+fn count_off(ctx: &Ctx, m: &TetMesh) -> Result<usize, Error> {
+    let tol = 1e-3 * ctx.opts.h0;
+    let mut n = 0;
+    for v in m.vertex_ids() {
+        if matches!(m.tag(v), VertexTag::Boundary) && ctx.approx_dist(m.pos(v))?.abs() > tol {
+            n += 1;
+        }
+    }
+    Ok(n)
+}
+
+// ============================ sliver removal ============================
+
+/// One round of sliver removal over the tets below TQ_TARGET, worst first: swaps, then
+/// smoothing of their vertices, then (from the second round) random perturbations. Returns
+/// how many changes were accepted.
+fn improve(ctx: &mut Ctx, m: &mut TetMesh, round: usize) -> Result<usize, Error> {
+    let mut bad: Vec<(f64, TetId)> =
+        m.tet_ids().map(|t| (tq(m.tet_points(t)), t)).filter(|&(q, _)| q < TQ_TARGET).collect();
+    bad.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+    let mut changes = 0;
+    for (_, t) in bad {
+        if !m.contains_tet(t) || tq(m.tet_points(t)) >= TQ_TARGET {
+            continue;
+        }
+        if try_swaps(ctx, m, t)? {
+            changes += 1;
+            continue;
+        }
+        let vs = m.tet(t).v;
+        let mut moved = false;
+        for v in vs {
+            if smooth_vertex(ctx, m, v)? {
+                changes += 1;
+                moved = true;
+            }
+        }
+        if moved && m.contains_tet(t) && tq(m.tet_points(t)) >= TQ_TARGET {
+            continue;
+        }
+        if round > 0 && m.contains_tet(t) {
+            for v in vs {
+                if perturb_vertex(ctx, m, v)? {
+                    changes += 1;
+                }
+            }
+        }
+    }
+    Ok(changes)
+}
+
+/// The best of: removing one of the six edges of `t` (interior or boundary), or a 2-3 flip of
+/// one of its faces, if it raises the worst tq of the tets it replaces.
+fn try_swaps(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> Result<bool, Error> {
+    // A tent or cap on the boundary (two or three boundary faces, centroid near d = 0) goes.
+    let nb = m.tet(t).adj.iter().filter(|a| a.is_none()).count();
+    if nb >= 2 {
+        let p = m.tet_points(t);
+        let c = (p[0] + p[1] + p[2] + p[3]) / 4.0;
+        if ctx.approx_dist(c)? > -GEPS * ctx.opts.h0 * ctx.h(c)? && m.remove_boundary_tet(t).is_ok() {
+            ctx.report.removed += 1;
+            return Ok(true);
+        }
+    }
+    let mut best: Option<(f64, TetPatch)> = None;
+    for [i, j] in EDGE_VERTICES {
+        let s = m.edge_shell(t, i, j);
+        let old = s.tets.iter().map(|&u| tq(m.tet_points(u))).fold(f64::INFINITY, f64::min);
+        if let Some((plan, q)) = ring_patch(ctx, m, &s, true)? {
+            if q > old + 1e-6 && best.as_ref().map_or(true, |b| q - old > b.0) {
+                best = Some((q - old, plan));
+            }
+        }
+    }
+    let tx = *m.tet(t);
+    for f in 0..4 {
+        let Some((u, j)) = tx.adj[f] else { continue };
+        let d = m.pos(tx.v[f]);
+        let e = m.pos(m.tet(u).v[j as usize]);
+        let [p, q, r] = m.face_vertices(t, f).map(|v| m.pos(v));
+        let newq = tq([p, q, d, e]).min(tq([q, r, d, e])).min(tq([r, p, d, e]));
+        let old = tq(m.tet_points(t)).min(tq(m.tet_points(u)));
+        if newq > old + 1e-6 && best.as_ref().map_or(true, |b| newq - old > b.0) {
+            if let Ok(plan) = m.check_flip23(t, f) {
+                best = Some((newq - old, plan));
+            }
+        }
+    }
+    if let Some((_, plan)) = best {
+        m.apply_patch(plan);
+        ctx.report.flips += 1;
+        return Ok(true);
+    }
+    // A flat cap on the boundary that neither leaves nor swaps: collapse its shortest edge
+    // whose collapse leaves every new tet above CAP_COLLAPSE_RR (the forces respace later).
+    if nb >= 1 && tq(m.tet_points(t)) < CAP_TQ {
+        let tx = *m.tet(t);
+        let mut edges: SmallVec<[(f64, usize); 6]> = (0..6)
+            .map(|e| {
+                let [i, j] = EDGE_VERTICES[e];
+                (m.pos(tx.v[i]).distance(m.pos(tx.v[j])), e)
+            })
+            .collect();
+        edges.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for (_, e) in edges {
+            for reverse in [false, true] {
+                let [i, j] = EDGE_VERTICES[e];
+                let stay = if reverse { tx.v[i] } else { tx.v[j] };
+                if let Ok(plan) = m.check_collapse(t, e, reverse, m.pos(stay)) {
+                    if plan.min_quality > CAP_COLLAPSE_RR {
+                        m.apply_patch(plan);
+                        ctx.report.collapses += 1;
+                        return Ok(true);
+                    }
+                }
+            }
+        }
+    }
+    Ok(false)
+}
+
+/// Smart Laplacian smoothing (Freitag and Ollivier-Gooch 1997 call it that): each free vertex
+/// moves to the mean of its neighbours (boundary vertices: then onto d = 0) when that raises
+/// its star's mean radius ratio and keeps the star's worst dihedral quality at least
+/// min(its old value, TQ_TARGET), so the extreme angles never get worse. Returns the moves.
+fn smart_laplacian(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
+    let vs: Vec<TVertexId> = m.vertex_ids().collect();
+    let mut moved = 0;
+    for v in vs {
+        if !m.contains_vertex(v) || m.tag(v) == VertexTag::Fixed {
+            continue;
+        }
+        let boundary = m.tag(v) == VertexTag::Boundary;
+        let nb = m.vertex_neighbours(v);
+        let nb: SmallVec<[DVec3; 32]> = nb
+            .iter()
+            .filter(|&&w| !boundary || matches!(m.tag(w), VertexTag::Boundary | VertexTag::Fixed))
+            .map(|&w| m.pos(w))
+            .collect();
+        if nb.is_empty() {
+            continue;
+        }
+        let mut y = nb.iter().copied().sum::<DVec3>() / nb.len() as f64;
+        if boundary {
+            match ctx.project(y)? {
+                Some(q) => y = q,
+                None => continue,
+            }
+        }
+        let star = star_of(m, v);
+        let x = m.pos(v);
+        let (f0, _) = star_min(&star, x);
+        let (f1, _) = star_min(&star, y);
+        if f1 >= f0.min(TQ_TARGET) && star_rr(&star, y) > star_rr(&star, x) + 1e-6 && m.relocate(v, y).is_ok() {
+            moved += 1;
+        }
+    }
+    ctx.report.smoothings += moved;
+    Ok(moved)
+}
+
+/// The star of `v` as point quadruples with `v`'s slot marked, for moving `v` around.
+fn star_of(m: &TetMesh, v: TVertexId) -> Vec<([DVec3; 4], usize)> {
+    m.vertex_tets(v)
+        .iter()
+        .map(|&t| {
+            let k = m.local_index(t, v).expect("star");
+            (m.tet_points(t), k)
+        })
+        .collect()
+}
+
+fn star_min(star: &[([DVec3; 4], usize)], x: DVec3) -> (f64, usize) {
+    let mut w = (f64::INFINITY, 0);
+    for (n, (p, k)) in star.iter().enumerate() {
+        let mut p = *p;
+        p[*k] = x;
+        let q = tq(p);
+        if q < w.0 {
+            w = (q, n);
+        }
+    }
+    w
+}
+
+/// Optimisation-based smoothing: moves `v` uphill on the quality of the worst tet of its star
+/// (finite-difference gradient, halving line search) while the star's worst tq improves.
+/// Boundary vertices move in the tangent plane and are projected back onto d = 0.
+fn smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, Error> {
+    if !m.contains_vertex(v) || m.tag(v) == VertexTag::Fixed {
+        return Ok(false);
+    }
+    let boundary = m.tag(v) == VertexTag::Boundary;
+    let star = star_of(m, v);
+    let x0 = m.pos(v);
+    let len = m.vertex_neighbours(v).iter().map(|&w| m.pos(w).distance(x0)).sum::<f64>()
+        / m.vertex_neighbours(v).len().max(1) as f64;
+    let (f0, _) = star_min(&star, x0);
+    let (mut x, mut fx) = (x0, f0);
+    for _ in 0..20 {
+        let (_, w) = star_min(&star, x);
+        let (p, k) = star[w];
+        let eps = 1e-6 * len;
+        let mut g = DVec3::ZERO;
+        for axis in 0..3 {
+            let mut e = DVec3::ZERO;
+            e[axis] = eps;
+            let (mut pp, mut pm) = (p, p);
+            pp[k] = x + e;
+            pm[k] = x - e;
+            g[axis] = (tq(pp) - tq(pm)) / (2.0 * eps);
+        }
+        if boundary {
+            let nrm = ctx.domain.gradient(x).normalize_or_zero();
+            g -= nrm * g.dot(nrm);
+        }
+        if g.length() <= 0.0 || !g.is_finite() {
+            break;
+        }
+        let dir = g.normalize();
+        let mut step = 0.1 * len;
+        let mut accepted = false;
+        for _ in 0..8 {
+            let mut y = x + dir * step;
+            if boundary {
+                match ctx.project(y)? {
+                    Some(q) => y = q,
+                    None => {
+                        step *= 0.5;
+                        continue;
+                    }
+                }
+            }
+            let (fy, _) = star_min(&star, y);
+            if fy > fx + 1e-9 {
+                x = y;
+                fx = fy;
+                accepted = true;
+                break;
+            }
+            step *= 0.5;
+        }
+        if !accepted {
+            break;
+        }
+    }
+    if fx > f0 + 1e-9 && star_rr(&star, x) > star_rr(&star, x0) - RR_SLACK && m.relocate(v, x).is_ok() {
+        ctx.report.smoothings += 1;
+        return Ok(true);
+    }
+    Ok(false)
+}
+
+/// Mean radius ratio of the star with `v` at `x`: a move for the worst tet may not cost the
+/// others more than RR_SLACK of it.
+fn star_rr(star: &[([DVec3; 4], usize)], x: DVec3) -> f64 {
+    let s: f64 = star
+        .iter()
+        .map(|(p, k)| {
+            let mut p = *p;
+            p[*k] = x;
+            crate::quality::tet_radius_ratio(p)
+        })
+        .sum();
+    s / star.len().max(1) as f64
+}
+
+/// Random moves of `v` within a tenth of its edge length (tangential on the boundary), the
+/// best of a few kept if it raises the star's worst tq: slivers that are a local optimum of
+/// the smoothing often are not one of a small jump.
+fn perturb_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, Error> {
+    if !m.contains_vertex(v) || m.tag(v) == VertexTag::Fixed {
+        return Ok(false);
+    }
+    let boundary = m.tag(v) == VertexTag::Boundary;
+    let star = star_of(m, v);
+    let x0 = m.pos(v);
+    let nb = m.vertex_neighbours(v);
+    let len = nb.iter().map(|&w| m.pos(w).distance(x0)).sum::<f64>() / nb.len().max(1) as f64;
+    let (f0, _) = star_min(&star, x0);
+    let mut best = (f0, x0);
+    for _ in 0..12 {
+        let r = DVec3::new(ctx.next_f64() - 0.5, ctx.next_f64() - 0.5, ctx.next_f64() - 0.5) * (0.2 * len);
+        let mut y = x0 + r;
+        if boundary {
+            match ctx.project(y)? {
+                Some(q) => y = q,
+                None => continue,
+            }
+        }
+        let (fy, _) = star_min(&star, y);
+        if fy > best.0 + 1e-9 {
+            best = (fy, y);
+        }
+    }
+    if best.0 > f0 + 1e-9 && star_rr(&star, best.1) > star_rr(&star, x0) - RR_SLACK && m.relocate(v, best.1).is_ok() {
+        ctx.report.smoothings += 1;
+        return Ok(true);
+    }
+    Ok(false)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn regular_tet_has_dihedral_quality_one() {
+        let s = 1.0 / 2f64.sqrt();
+        let p =
+            [DVec3::new(1.0, 0.0, -s), DVec3::new(-1.0, 0.0, -s), DVec3::new(0.0, 1.0, s), DVec3::new(0.0, -1.0, s)];
+        let p = if crate::quality::tet_volume(p) > 0.0 { p } else { [p[1], p[0], p[2], p[3]] };
+        assert!((tq(p) - 1.0).abs() < 1e-9, "{}", tq(p));
+        let flat = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(1.0, 1.0, 0.0)];
+        assert!(tq(flat) < 0.0);
+    }
+
+    #[test]
+    fn tq_below_agrees_with_tq() {
+        let (cl, ch) = tq_cos_bounds(0.5);
+        let mut rng = crate::testing::Rng::new(crate::testing::SEED);
+        let mut seen = [0usize; 2];
+        for _ in 0..2000 {
+            let p = [0; 4].map(|_| DVec3::new(rng.f64(), rng.f64(), rng.f64()));
+            let q = tq(p);
+            if (q - 0.5).abs() > 1e-9 {
+                assert_eq!(tq_below(p, cl, ch), q < 0.5, "tq {q}");
+                seen[(q < 0.5) as usize] += 1;
+            }
+        }
+        assert!(seen[0] > 0 && seen[1] > 0, "both sides sampled: {seen:?}");
+    }
+}

@@ -1,0 +1,148 @@
+//! What a 3-D meshing run reports.
+
+use crate::geometry::Implicit3;
+use crate::topology::TetMesh;
+use glam::DVec3;
+
+/// Quality statistics of a tetrahedral mesh.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct QualityStats3 {
+    /// Number of tetrahedra.
+    pub tets: usize,
+    /// Number of vertices.
+    pub vertices: usize,
+    /// Smallest radius ratio 3 r_in / r_out.
+    pub rr_min: f64,
+    /// Mean radius ratio.
+    pub rr_mean: f64,
+    /// Smallest dihedral angle in degrees.
+    pub dihedral_min: f64,
+    /// Largest dihedral angle in degrees.
+    pub dihedral_max: f64,
+}
+
+impl QualityStats3 {
+    /// The statistics of a mesh.
+    pub fn of(m: &TetMesh) -> Self {
+        let mut s = QualityStats3 {
+            tets: m.num_tets(),
+            vertices: m.num_vertices(),
+            rr_min: 1.0,
+            dihedral_min: 180.0,
+            ..Default::default()
+        };
+        let mut sum = 0.0;
+        for t in m.tet_ids() {
+            let p = m.tet_points(t);
+            let q = crate::quality::tet_radius_ratio(p);
+            sum += q;
+            s.rr_min = s.rr_min.min(q);
+            for a in crate::quality::tet_dihedral_angles_deg(p) {
+                s.dihedral_min = s.dihedral_min.min(a);
+                s.dihedral_max = s.dihedral_max.max(a);
+            }
+        }
+        if s.tets > 0 {
+            s.rr_mean = sum / s.tets as f64;
+        } else {
+            s.rr_min = 0.0;
+        }
+        s
+    }
+}
+
+/// The report of a 3-D meshing run.
+#[derive(Clone, Debug, Default)]
+pub struct Report3 {
+    /// Force iterations done.
+    pub iterations: usize,
+    /// True when the movement tolerance or the quality plateau ended the force iterations;
+    /// false when the iteration cap did (the mesh is still valid).
+    pub converged: bool,
+    /// Why the force iterations stopped.
+    pub stop_reason: String,
+    /// Wall time in seconds.
+    pub seconds: f64,
+    /// 2-3, 3-2, 4-4 flips, edge removals and boundary edge flips done.
+    pub flips: usize,
+    /// Edge splits done.
+    pub splits: usize,
+    /// Edge collapses done.
+    pub collapses: usize,
+    /// Tets squashed against the boundary that were dropped from it.
+    pub removed: usize,
+    /// Vertex moves accepted by the optimisation-based smoothing and the perturbations.
+    pub smoothings: usize,
+    /// Boundary nodes left farther than 1e-3 h0 from d = 0 (0 in a good run).
+    pub boundary_nodes_off: usize,
+    /// Quality of the result.
+    pub quality: QualityStats3,
+}
+
+impl std::fmt::Display for Report3 {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let q = &self.quality;
+        writeln!(
+            f,
+            "{} vertices, {} tetrahedra in {:.3} s, {} iterations ({})",
+            q.vertices, q.tets, self.seconds, self.iterations, self.stop_reason
+        )?;
+        writeln!(
+            f,
+            "radius ratio min {:.4}, mean {:.4}; dihedral angles {:.1} to {:.1} degrees",
+            q.rr_min, q.rr_mean, q.dihedral_min, q.dihedral_max
+        )?;
+        write!(
+            f,
+            "{} flips, {} splits, {} collapses, {} smoothing moves",
+            self.flips, self.splits, self.collapses, self.smoothings
+        )?;
+        if self.boundary_nodes_off > 0 {
+            write!(
+                f,
+                "\nwarning: {} boundary nodes are off the boundary (more than 1e-3 h0)",
+                self.boundary_nodes_off
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Size deviation: std/mean over tetrahedra of circumradius / h(centroid) (seed section 2.7).
+pub fn size_deviation_3d(m: &TetMesh, h: &dyn Fn(DVec3) -> f64) -> f64 {
+    let mut v = Vec::with_capacity(m.num_tets());
+    for t in m.tet_ids() {
+        let p = m.tet_points(t);
+        v.push(circumradius(p) / h((p[0] + p[1] + p[2] + p[3]) / 4.0));
+    }
+    let n = v.len().max(1) as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
+    var.sqrt() / mean
+}
+
+/// Circumradius of a tetrahedron (infinite when flat).
+pub fn circumradius(p: [DVec3; 4]) -> f64 {
+    let (a, b, c) = (p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+    let num = a.length_squared() * b.cross(c) + b.length_squared() * c.cross(a) + c.length_squared() * a.cross(b);
+    num.length() / (2.0 * a.dot(b.cross(c)).abs())
+}
+
+/// Largest |d| / |grad d| over boundary vertices: how far the boundary nodes are from d = 0.
+pub fn boundary_deviation_3d(m: &TetMesh, domain: &dyn Implicit3) -> f64 {
+    let mut on = std::collections::BTreeSet::new();
+    for (t, i) in m.boundary_faces() {
+        on.extend(m.face_vertices(t, i));
+    }
+    on.into_iter()
+        .map(|v| {
+            let p = m.pos(v);
+            let d = domain.value(p).abs();
+            if domain.is_distance() {
+                d
+            } else {
+                d / domain.gradient(p).length()
+            }
+        })
+        .fold(0.0, f64::max)
+}
