@@ -5,10 +5,10 @@
 //! and y down (pixel (i, j) has its centre at (i + 0.5, j + 0.5)), scaled by `scale`.
 
 use super::{mesh_2d, MeshOutput2, Options2};
-use crate::geometry::{Grid2, Implicit2};
+use crate::geometry::{Grid2, Grid3, Implicit2};
 use crate::size::{auto_size_2d, reinitialize_2d, SizeParams};
 use crate::Error;
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 
 /// Options of [`mesh_image`].
 #[derive(Clone, Debug)]
@@ -108,6 +108,63 @@ pub fn image_distance(grey: &[f64], w: usize, h: usize, threshold: f64, invert: 
     let origin = DVec2::new(0.5 - PAD as f64, 0.5 - PAD as f64);
     let raw = Grid2::new(origin, 1.0, nx, ny, phi)?.with_distance(false);
     Ok(reinitialize_2d(&raw))
+}
+
+/// The signed distance (in voxels) of the region of a stack of slices (`grey`, w x h x d,
+/// x fastest, then y, then slice) brighter than `threshold`: as [`image_distance`], phi =
+/// threshold - grey smoothed by a 3 x 3 x 3 box filter, padded with outside voxels,
+/// reinitialised by fast marching. Voxel centres lie at (i + 0.5, j + 0.5, k + 0.5).
+pub fn stack_distance(grey: &[f64], w: usize, h: usize, d: usize, threshold: f64) -> Result<Grid3, Error> {
+    if w < 2 || h < 2 || d < 2 || w.checked_mul(h).and_then(|n| n.checked_mul(d)) != Some(grey.len()) {
+        return Err(Error::Invalid(format!(
+            "a stack of {w} x {h} x {d} voxels with {} values cannot be meshed",
+            grey.len()
+        )));
+    }
+    if !(0.0..=1.0).contains(&threshold) {
+        return Err(Error::Invalid(format!("threshold {threshold} is outside [0, 1]")));
+    }
+    if let Some(v) = grey.iter().find(|v| !v.is_finite()) {
+        return Err(Error::NonFinite { what: "a voxel value", value: *v, at: [0.0; 3] });
+    }
+    const PAD: usize = 3;
+    let n = [w + 2 * PAD, h + 2 * PAD, d + 2 * PAD];
+    let level = |i: usize, j: usize, k: usize| -> f64 {
+        if i < PAD || j < PAD || k < PAD || i >= w + PAD || j >= h + PAD || k >= d + PAD {
+            return 1.0;
+        }
+        threshold - grey[(i - PAD) + w * ((j - PAD) + h * (k - PAD))]
+    };
+    let clamp = |x: usize, dx: i64, n: usize| (x as i64 + dx).clamp(0, n as i64 - 1) as usize;
+    let mut phi = vec![0.0; n[0] * n[1] * n[2]];
+    let mut inside = 0usize;
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                let mut s = 0.0;
+                for dk in -1i64..=1 {
+                    for dj in -1i64..=1 {
+                        for di in -1i64..=1 {
+                            s += level(clamp(i, di, n[0]), clamp(j, dj, n[1]), clamp(k, dk, n[2]));
+                        }
+                    }
+                }
+                let v = s / 27.0;
+                phi[i + n[0] * (j + n[1] * k)] = v;
+                if v < 0.0 {
+                    inside += 1;
+                }
+            }
+        }
+    }
+    if inside == 0 {
+        return Err(Error::EmptyDomain(format!(
+            "no voxel is brighter than the threshold {threshold}: the mask is empty"
+        )));
+    }
+    let origin = DVec3::splat(0.5 - PAD as f64);
+    let raw = Grid3::new(origin, 1.0, n, phi)?.with_distance(false);
+    Ok(crate::size::reinitialize_3d(&raw))
 }
 
 /// A scaled copy of a distance in pixels.
