@@ -20,9 +20,14 @@ pub struct Example {
     pub fix: Option<&'static str>,
     /// The domain is a level set, not a signed distance (`--implicit`).
     pub implicit: bool,
+    /// Internal boundaries d_I(x, y) = 0 (`--internal`).
+    pub internal: Option<&'static str>,
+    /// Anisotropic metric "A;B;C" (`--metric`).
+    pub metric: Option<&'static str>,
 }
 
-/// Every 2-D example of the seed (section 2.5, figure 2-4; the ellipse of figure 3-3).
+/// Every 2-D example of the seed (section 2.5, figure 2-4; the ellipse of figure 3-3; the
+/// internal boundaries of figure 3-5 and the anisotropic circle of figure 3-6).
 /// Example 1 from a grid is left out: the command line has no grid input.
 pub const EXAMPLES: &[Example] = &[
     Example {
@@ -34,6 +39,8 @@ pub const EXAMPLES: &[Example] = &[
         bbox: "-1,-1,1,1",
         fix: None,
         implicit: false,
+        internal: None,
+        metric: None,
     },
     Example {
         name: "ex1b",
@@ -44,6 +51,8 @@ pub const EXAMPLES: &[Example] = &[
         bbox: "-1,-1,1,1",
         fix: None,
         implicit: false,
+        internal: None,
+        metric: None,
     },
     Example {
         name: "ex1c",
@@ -54,6 +63,8 @@ pub const EXAMPLES: &[Example] = &[
         bbox: "-1,-1,1,1",
         fix: None,
         implicit: false,
+        internal: None,
+        metric: None,
     },
     Example {
         name: "ex2",
@@ -64,6 +75,8 @@ pub const EXAMPLES: &[Example] = &[
         bbox: "-1,-1,1,1",
         fix: None,
         implicit: false,
+        internal: None,
+        metric: None,
     },
     Example {
         name: "ex3a",
@@ -74,6 +87,8 @@ pub const EXAMPLES: &[Example] = &[
         bbox: "-1,-1,1,1",
         fix: Some("-1,-1; -1,1; 1,-1; 1,1"),
         implicit: false,
+        internal: None,
+        metric: None,
     },
     Example {
         name: "ex3b",
@@ -84,6 +99,8 @@ pub const EXAMPLES: &[Example] = &[
         bbox: "-1,-1,1,1",
         fix: Some("-1,-1; -1,1; 1,-1; 1,1"),
         implicit: false,
+        internal: None,
+        metric: None,
     },
     Example {
         name: "ex4",
@@ -97,6 +114,8 @@ pub const EXAMPLES: &[Example] = &[
             "sqrt(3)/4,0.25; 0,0.5; -sqrt(3)/4,0.25; -sqrt(3)/4,-0.25; 0,-0.5; sqrt(3)/4,-0.25"
         )),
         implicit: false,
+        internal: None,
+        metric: None,
     },
     Example {
         name: "ex5",
@@ -107,6 +126,8 @@ pub const EXAMPLES: &[Example] = &[
         bbox: "-1,0,1,1",
         fix: Some("-1,0; -0.95,0; 0.15,0; 1,0"),
         implicit: false,
+        internal: None,
+        metric: None,
     },
     Example {
         name: "ex6",
@@ -117,6 +138,8 @@ pub const EXAMPLES: &[Example] = &[
         bbox: "-1,-1,1,1",
         fix: None,
         implicit: true,
+        internal: None,
+        metric: None,
     },
     Example {
         name: "ex7",
@@ -127,6 +150,8 @@ pub const EXAMPLES: &[Example] = &[
         bbox: "-5*pi/2,-5,5*pi/2,1",
         fix: Some("-5*pi/2,0; 5*pi/2,0"),
         implicit: true,
+        internal: None,
+        metric: None,
     },
     Example {
         name: "ex8",
@@ -137,6 +162,8 @@ pub const EXAMPLES: &[Example] = &[
         bbox: "-1,-0.7,1.2,0.7",
         fix: Some("-1,-0.5; -1,0.5"),
         implicit: false,
+        internal: None,
+        metric: None,
     },
     Example {
         name: "ellipse",
@@ -147,6 +174,36 @@ pub const EXAMPLES: &[Example] = &[
         bbox: "-2,-1,2,1",
         fix: None,
         implicit: true,
+        internal: None,
+        metric: None,
+    },
+    Example {
+        name: "fig3-5",
+        title: "square with a circle and a polygon as internal boundaries",
+        domain: "drectangle(x,y,-1,1,-1,1)",
+        size: None,
+        h0: "0.05",
+        bbox: "-1,-1,1,1",
+        fix: Some("-1,-1; 1,-1; 1,1; -1,1; 0.15,-0.55; 0.75,-0.65; 0.65,0.05; 0.35,0.35; 0.1,-0.05"),
+        implicit: false,
+        internal: Some(
+            "min(dcircle(x,y,-0.45,0.35,0.35), dpoly(x,y, 0.15,-0.55, 0.75,-0.65, 0.65,0.05, 0.35,0.35, 0.1,-0.05))",
+        ),
+        metric: None,
+    },
+    Example {
+        name: "fig3-6",
+        title: "anisotropic unit circle: radial size min(0.01 + 0.3 (1 - r), 0.2), tangential 0.2",
+        domain: "sqrt(x^2+y^2)-1",
+        size: None,
+        h0: "0.01",
+        bbox: "-1,-1,1,1",
+        fix: None,
+        implicit: false,
+        internal: None,
+        metric: Some(
+            "25+x^2*(1/min(0.01+0.3*(1-sqrt(x^2+y^2)),0.2)^2-25)/(x^2+y^2+1e-300); x*y*(1/min(0.01+0.3*(1-sqrt(x^2+y^2)),0.2)^2-25)/(x^2+y^2+1e-300); 25+y^2*(1/min(0.01+0.3*(1-sqrt(x^2+y^2)),0.2)^2-25)/(x^2+y^2+1e-300)",
+        ),
     },
 ];
 
@@ -166,6 +223,12 @@ impl Example {
         push("--bbox", self.bbox);
         if let Some(f) = self.fix {
             push("--fix", f);
+        }
+        if let Some(d) = self.internal {
+            push("--internal", d);
+        }
+        if let Some(m) = self.metric {
+            push("--metric", m);
         }
         if self.implicit {
             a.push("--implicit".into());
@@ -237,6 +300,21 @@ impl Example {
             }
             opts = opts.with_fixed(pts);
         }
+        if let Some(d) = self.internal {
+            let mut di = ExprImplicit2::new(parse(d)?);
+            di.distance = !self.implicit;
+            opts = opts.with_internal(di);
+        }
+        if let Some(m) = self.metric {
+            let parts: Vec<Expr> = m.split(';').map(parse).collect::<Result<_, _>>()?;
+            if parts.len() != 3 {
+                return Err(crate::Error::Invalid(format!("metric '{m}' needs three expressions")));
+            }
+            opts = opts.with_metric(move |p| {
+                let e = |k: usize| parts[k].eval(p.x, p.y, 0.0);
+                crate::mesher::Metric2::new(e(0), e(1), e(2))
+            });
+        }
         Ok((domain, opts))
     }
 
@@ -247,6 +325,8 @@ impl Example {
             "ex1a" | "ex1b" | "ex1c" => Some(PI),
             "ex2" => Some(PI * (1.0 - 0.16)),
             "ex3a" | "ex3b" => Some(4.0 - PI * 0.16),
+            "fig3-5" => Some(4.0),
+            "fig3-6" => Some(PI),
             "ex4" => Some(3.0 * 3f64.sqrt() / 2.0 * (1.0 - 0.25)),
             "ellipse" => Some(PI * 2.0),
             _ => None,

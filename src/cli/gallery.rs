@@ -18,7 +18,7 @@ pub struct GalleryArgs {
     pub list: bool,
 }
 
-const HEADER: &str = "| example | nodes | triangles | q min | q mean | min angle | size dev | max \\|d\\|/h0 | iterations | seconds |\n|---|---|---|---|---|---|---|---|---|---|\n";
+const HEADER: &str = "| example | nodes | triangles | q min | q mean | min angle | size dev | max \\|d\\|/h0 | iterations | seconds | notes |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
 
 /// `trussmesh gallery`.
 pub fn run(a: GalleryArgs) -> Result<(), Failure> {
@@ -38,7 +38,7 @@ pub fn run(a: GalleryArgs) -> Result<(), Failure> {
             Ok(row) => table.push_str(&row),
             Err(f) => {
                 table.push_str(&format!(
-                    "| {} | failed: {} |||||||||\n",
+                    "| {} | failed: {} ||||||||||\n",
                     ex.name,
                     f.message.lines().next().unwrap_or("").replace('|', "\\|")
                 ));
@@ -85,8 +85,21 @@ fn one(a: &GalleryArgs, ex: &trussmesh::gallery::Example) -> Result<String, Fail
         angle_max: 0.0,
     });
     let r = &done.report;
+    // Anisotropic runs are judged in their metric; internal boundaries by their subdomains.
+    let mut notes = String::new();
+    if let Some(m) = &r.metric {
+        notes = format!(
+            "metric: {:.1}% of edges in [0.707, 1.414], metric q min {:.3}, mean {:.3}",
+            100.0 * m.in_band,
+            m.q_min,
+            m.q_mean
+        );
+    } else if let Some(labels) = &done.mesh.subdomain {
+        let n = labels.iter().collect::<std::collections::BTreeSet<_>>().len();
+        notes = format!("{n} subdomains");
+    }
     Ok(format!(
-        "| {} | {} | {} | {:.3} | {:.3} | {:.1} | {:.3} | {:.1e} | {} | {:.2} |\n",
+        "| {} | {} | {} | {:.3} | {:.3} | {:.1} | {:.3} | {:.1e} | {} | {:.2} | {notes} |\n",
         ex.name,
         s.nodes,
         s.cells,

@@ -234,6 +234,29 @@ fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
             t.iter().map(|p| [(x0 + scale * (p[0] - lo[0])) as f32, (y0 + scale * (hi[1] - p[1])) as f32]).collect();
         prims.push(Prim::Poly { pts, fill: *color, stroke: Some(([40, 40, 50], edge_w)) });
     }
+    // Internal boundaries: edges between triangles of different subdomains, drawn thick.
+    if let (2, Some(labels)) = (m.dim, &m.subdomain) {
+        let mut seen: std::collections::HashMap<(usize, usize), i32> = std::collections::HashMap::new();
+        let mut interface = Vec::new();
+        for i in 0..m.num_cells() {
+            let c = m.cell(i);
+            for k in 0..3 {
+                let (a, b) = (c[k].min(c[(k + 1) % 3]), c[k].max(c[(k + 1) % 3]));
+                match seen.insert((a, b), labels[i]) {
+                    Some(l) if l != labels[i] => interface.push((a, b)),
+                    _ => {}
+                }
+            }
+        }
+        interface.sort_unstable();
+        let at = |i: usize| {
+            let p = m.points[i];
+            [(x0 + scale * (p[0] - lo[0])) as f32, (y0 + scale * (hi[1] - p[1])) as f32]
+        };
+        for (a, b) in interface {
+            prims.push(Prim::Line { a: at(a), b: at(b), color: [20, 20, 120], width: 3.0 * edge_w });
+        }
+    }
 
     // Histogram of quality in 20 bins over [0, 1].
     let top = l.margin + l.title_h + panel_h as f32 + 0.05 * l.w;
