@@ -76,7 +76,13 @@ pub fn main() -> i32 {
         }
     };
     std::panic::set_hook(Box::new(|info| {
-        eprintln!("error: internal failure (please report): {info}");
+        // A reader that went away (`trussmesh ... | head`) is not a failure: stop quietly, as
+        // tools killed by SIGPIPE do.
+        let text = info.to_string();
+        if text.contains("failed printing to stdout") && text.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        eprintln!("error: internal failure (please report): {text}");
     }));
     match catch_unwind(AssertUnwindSafe(|| run(cli))) {
         Ok(Ok(())) => 0,
