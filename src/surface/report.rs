@@ -38,6 +38,9 @@ pub struct SurfaceQuality {
     pub mean_q: f64,
     /// Standard deviation over mean of edge length / h(midpoint).
     pub size_deviation: f64,
+    /// The project's size deviation (docs/quality.md, seed section 2.7): standard deviation
+    /// over mean, over triangles, of circumradius / h(centroid).
+    pub circumradius_deviation: f64,
     /// Mean edge length / h(midpoint).
     pub mean_size_ratio: f64,
 }
@@ -50,6 +53,7 @@ impl SurfaceQuality {
         let vertex_residual = m.vertices().map(|(_, v)| residual(phi, v.pos)).fold(0.0, f64::max) / hmin;
         let (mut min_angle, mut max_angle, mut min_q, mut sum_q) = (180.0f64, 0.0f64, 1.0f64, 0.0);
         let (mut cmax, mut csum, mut inward) = (0.0f64, 0.0, 0);
+        let mut radii = Vec::with_capacity(m.num_faces());
         for f in m.face_ids() {
             let [a, b, c] = m.face_points(f);
             let (la, lb, lc) = (b.distance(c), c.distance(a), a.distance(b));
@@ -61,6 +65,7 @@ impl SurfaceQuality {
                 max_angle = max_angle.max(ang);
             }
             let cen = (a + b + c) / 3.0;
+            radii.push(crate::quality::circumradius_from_lengths(la, lb, lc) / size.at(cen));
             let dev = residual(phi, cen) / size.at(cen);
             cmax = cmax.max(dev);
             csum += dev;
@@ -79,7 +84,10 @@ impl SurfaceQuality {
         let ne = ratios.len().max(1) as f64;
         let mean = ratios.iter().sum::<f64>() / ne;
         let var = ratios.iter().map(|r| (r - mean) * (r - mean)).sum::<f64>() / ne;
+        let rmean = radii.iter().sum::<f64>() / nf;
+        let rvar = radii.iter().map(|r| (r - rmean) * (r - rmean)).sum::<f64>() / nf;
         SurfaceQuality {
+            circumradius_deviation: rvar.sqrt() / rmean,
             vertices: m.num_vertices(),
             triangles: m.num_faces(),
             euler: m.euler_characteristic(),
@@ -148,11 +156,12 @@ impl fmt::Display for SurfaceReport {
         )?;
         writeln!(
             f,
-            "min angle {:.1}, max angle {:.1}, min q {:.3}, mean q {:.4}, size deviation {:.1}% (mean length/h {:.3})",
+            "min angle {:.1}, max angle {:.1}, min q {:.3}, mean q {:.4}, size deviation {:.1}% (circumradius/h; edge length/h: {:.1}%, mean length/h {:.3})",
             q.min_angle,
             q.max_angle,
             q.min_q,
             q.mean_q,
+            100.0 * q.circumradius_deviation,
             100.0 * q.size_deviation,
             q.mean_size_ratio
         )?;
