@@ -74,29 +74,18 @@ fn node_values<T: Copy>(g: &Grid2, f: impl Fn(DVec2) -> T, finite: impl Fn(T) ->
 /// CFL-limited sub-steps) and reinitialises it to a signed distance.
 pub fn advect_2d(phi: &Grid2, v: impl Fn(DVec2) -> DVec2, dt: f64) -> Result<Grid2, Error> {
     check_step(dt)?;
-    let (nx, ny) = phi.dims();
     let h = phi.spacing();
     let vel = node_values(phi, v, |w: DVec2| w.is_finite())?;
     let vmax = vel.iter().map(|w| w.abs().max_element()).fold(0.0, f64::max);
     let n = substeps(dt, 2.0 * vmax, h)?;
-    let tau = dt / n as f64;
-    let mut cur = phi.values().to_vec();
-    let mut next = cur.clone();
-    for _ in 0..n {
-        for j in 0..ny {
-            for i in 0..nx {
-                let k = i + nx * j;
-                let (dmx, dpx, dmy, dpy) = differences(&cur, nx, ny, h, i, j);
-                let w = vel[k];
-                // Upwind: information comes from where the flow comes from.
-                let gx = if w.x > 0.0 { dmx } else { dpx };
-                let gy = if w.y > 0.0 { dmy } else { dpy };
-                next[k] = cur[k] - tau * (w.x * gx + w.y * gy);
-            }
-        }
-        std::mem::swap(&mut cur, &mut next);
-    }
-    finish(phi, cur)
+    let values = evolve(phi, dt / n as f64, n, |k, (dmx, dpx, dmy, dpy)| {
+        let w = vel[k];
+        // Upwind: information comes from where the flow comes from.
+        let gx = if w.x > 0.0 { dmx } else { dpx };
+        let gy = if w.y > 0.0 { dmy } else { dpy };
+        w.x * gx + w.y * gy
+    });
+    finish(phi, values)
 }
 
 /// Moves the front phi = 0 along its normal at speed `f` for time `dt` (seed eq. 5.2 to 5.5:
@@ -104,31 +93,39 @@ pub fn advect_2d(phi: &Grid2, v: impl Fn(DVec2) -> DVec2, dt: f64) -> Result<Gri
 /// reinitialises phi to a signed distance.
 pub fn move_normal_2d(phi: &Grid2, f: impl Fn(DVec2) -> f64, dt: f64) -> Result<Grid2, Error> {
     check_step(dt)?;
-    let (nx, ny) = phi.dims();
     let h = phi.spacing();
     let speed = node_values(phi, f, |s: f64| s.is_finite())?;
     let smax = speed.iter().map(|s| s.abs()).fold(0.0, f64::max);
     let n = substeps(dt, 2.0 * smax, h)?;
-    let tau = dt / n as f64;
+    let values = evolve(phi, dt / n as f64, n, |k, (dmx, dpx, dmy, dpy)| {
+        // Eq. 5.4 and 5.5 (Osher and Sethian's upwind gradient norms).
+        let grad_plus =
+            (dmx.max(0.0).powi(2) + dpx.min(0.0).powi(2) + dmy.max(0.0).powi(2) + dpy.min(0.0).powi(2)).sqrt();
+        let grad_minus =
+            (dmx.min(0.0).powi(2) + dpx.max(0.0).powi(2) + dmy.min(0.0).powi(2) + dpy.max(0.0).powi(2)).sqrt();
+        let s = speed[k];
+        s.max(0.0) * grad_plus + s.min(0.0) * grad_minus
+    });
+    finish(phi, values)
+}
+
+/// `n` explicit sub-steps of length `tau` of phi_t + H = 0, with H at node k given by `rate`
+/// from the one-sided differences there.
+fn evolve(phi: &Grid2, tau: f64, n: usize, rate: impl Fn(usize, (f64, f64, f64, f64)) -> f64) -> Vec<f64> {
+    let (nx, ny) = phi.dims();
+    let h = phi.spacing();
     let mut cur = phi.values().to_vec();
     let mut next = cur.clone();
     for _ in 0..n {
         for j in 0..ny {
             for i in 0..nx {
                 let k = i + nx * j;
-                let (dmx, dpx, dmy, dpy) = differences(&cur, nx, ny, h, i, j);
-                // Eq. 5.4 and 5.5 (Osher and Sethian's upwind gradient norms).
-                let grad_plus =
-                    (dmx.max(0.0).powi(2) + dpx.min(0.0).powi(2) + dmy.max(0.0).powi(2) + dpy.min(0.0).powi(2)).sqrt();
-                let grad_minus =
-                    (dmx.min(0.0).powi(2) + dpx.max(0.0).powi(2) + dmy.min(0.0).powi(2) + dpy.max(0.0).powi(2)).sqrt();
-                let s = speed[k];
-                next[k] = cur[k] - tau * (s.max(0.0) * grad_plus + s.min(0.0) * grad_minus);
+                next[k] = cur[k] - tau * rate(k, differences(&cur, nx, ny, h, i, j));
             }
         }
         std::mem::swap(&mut cur, &mut next);
     }
-    finish(phi, cur)
+    cur
 }
 
 fn finish(phi: &Grid2, values: Vec<f64>) -> Result<Grid2, Error> {

@@ -73,34 +73,10 @@ impl TriMesh<DVec2> {
         self.legalize(stack)
     }
 
-    /// Lawson flips starting from the given edges.
-    pub(crate) fn legalize(&mut self, mut stack: Vec<HalfEdgeId>) -> usize {
-        let mut flips = 0;
-        while let Some(h) = stack.pop() {
-            if !self.contains_half_edge(h) {
-                continue;
-            }
-            // Boundary and constrained edges are never flipped.
-            let Some(plan) = self.interior_quad(h) else {
-                continue;
-            };
-            let (pa, pb, pc, pd) = (self.pos(plan.a), self.pos(plan.b), self.pos(plan.c), self.pos(plan.d));
-            if incircle(pa, pb, pc, pd) != Sign::Positive {
-                continue;
-            }
-            // A strictly non-Delaunay edge has a strictly convex quad, but check anyway: an
-            // edge whose flip is refused (e.g. an existing c-d edge) is left alone.
-            if self.quad_flippable(&plan, pa, pb, pc, pd) {
-                self.apply_flip(plan);
-                flips += 1;
-                // h now runs d -> c; push the four outer edges of the quad.
-                stack.push(plan.h_ca);
-                stack.push(plan.t_ad);
-                stack.push(plan.t_db);
-                stack.push(plan.h_bc);
-            }
-        }
-        flips
+    /// Lawson flips starting from the given edges (exact in-circle; terminates on any valid
+    /// planar triangulation, so no cap).
+    pub(crate) fn legalize(&mut self, stack: Vec<HalfEdgeId>) -> usize {
+        self.legalize_with(stack, usize::MAX, |a, b, c, d| incircle(a, b, c, d) == Sign::Positive)
     }
 
     /// Lawson flips by a caller's in-circle test (`illegal(a, b, c, d)`: the edge a-b with
