@@ -16,6 +16,7 @@
 //! Sizes are uniform or follow the maximum principal curvature with gradient limiting (seed
 //! chapter 4).
 
+pub mod bezier;
 pub mod geom;
 pub mod march;
 pub mod ops;
