@@ -521,15 +521,19 @@ pub fn mesh_patch_with_sides(
     let mut pts: Vec<DVec3> = uv.iter().map(|&q| pos_of(q)).collect();
     flip_pass(&pts, &uv, &mut tris);
     for it in 1..=opts.max_iterations {
-        let moved = force_step(p, &mut pts, &mut uv, &kind, &tris, h, opts, &pos_of);
+        let (moved, rebuild) = force_step(p, &mut pts, &mut uv, &mut kind, &tris, h, opts, &pos_of);
+        if rebuild {
+            tris = triangulate(p, &mut uv, &mut kind)?;
+            pts = uv.iter().map(|&q| pos_of(q)).collect();
+        }
         flip_pass(&pts, &uv, &mut tris);
-        let late = it + 2 * DENSITY_EVERY > opts.max_iterations;
+        let late = it + DENSITY_EVERY > opts.max_iterations;
         if it % DENSITY_EVERY == 0 && !late && density(p, &mut pts, &mut uv, &mut kind, &tris, h, opts, &pos_of) {
             tris = triangulate(p, &mut uv, &mut kind)?;
             flip_pass(&pts, &uv, &mut tris);
             continue;
         }
-        if moved < 1e-4 && it > DENSITY_EVERY {
+        if moved < 1e-4 && it > DENSITY_EVERY && it % DENSITY_EVERY != 1 {
             break;
         }
     }
@@ -610,6 +614,7 @@ fn density(
 ) -> bool {
     let mut gone = vec![false; pts.len()];
     let mut add: Vec<DVec2> = Vec::new();
+    let mut add_trim: Vec<DVec2> = Vec::new();
     for ((a, b), ts) in edges_sorted(tris) {
         let l = pts[a].distance(pts[b]);
         if l < 0.5 * h {
@@ -623,9 +628,32 @@ fn density(
         } else if l > 1.6 * h && ts.len() == 2 && kind[a] != Kind::Fixed && kind[b] != Kind::Fixed {
             let mid = 0.5 * (uv[a] + uv[b]);
             add.push(if opts.in_space { p.project(0.5 * (pts[a] + pts[b]), mid, None) } else { mid });
+        } else if l > 1.6 * h && ts.len() == 1 && (kind[a] == Kind::Trim || kind[b] == Kind::Trim) {
+            // A long piece of the trim curve: a new node on the curve.
+            let mid = 0.5 * (uv[a] + uv[b]);
+            let q = if opts.in_space { p.project(0.5 * (pts[a] + pts[b]), mid, None) } else { mid };
+            add_trim.push(p.to_trim_curve(q, None));
         }
     }
-    if add.is_empty() && !gone.iter().any(|&g| g) {
+    // A sliver left by a node pressed against the boundary loses that node (the one opposite
+    // its longest edge) when it is free.
+    for t in tris {
+        let q = t.map(|i| pts[i]);
+        if triangle_q3(q) >= 0.2 || t.iter().any(|&i| gone[i]) {
+            continue;
+        }
+        let opp = (0..3).max_by(|&a, &b| {
+            let la = q[(a + 1) % 3].distance(q[(a + 2) % 3]);
+            let lb = q[(b + 1) % 3].distance(q[(b + 2) % 3]);
+            la.total_cmp(&lb)
+        });
+        if let Some(k) = opp {
+            if kind[t[k]] != Kind::Fixed {
+                gone[t[k]] = true;
+            }
+        }
+    }
+    if add.is_empty() && add_trim.is_empty() && !gone.iter().any(|&g| g) {
         return false;
     }
     let mut k = 0;
@@ -641,6 +669,10 @@ fn density(
     for q in add {
         uv.push(q);
         kind.push(Kind::Interior);
+    }
+    for q in add_trim {
+        uv.push(q);
+        kind.push(Kind::Trim);
     }
     *pts = uv.iter().map(|&q| pos_of(q)).collect();
     true
@@ -738,18 +770,19 @@ fn flip_pass(pts: &[DVec3], uv: &[DVec2], tris: &mut [[usize; 3]]) -> usize {
 /// One truss step: repulsive bar forces toward Fscale h (seed eq. 2.6, scaled so the bars fill
 /// the surface), forward Euler in space, projection of each node back onto the patch (interior
 /// eq. 3.29, trim curve eq. 3.31-3.32); a move that would turn a triangle in (u, v) is undone.
-/// Returns the largest move relative to h.
+/// Returns the largest move relative to h and whether a node joined the trim boundary (then
+/// the triangles must be rebuilt).
 #[allow(clippy::too_many_arguments)]
 fn force_step(
     p: &RationalBezierPatch,
     pts: &mut [DVec3],
     uv: &mut [DVec2],
-    kind: &[Kind],
+    kind: &mut [Kind],
     tris: &[[usize; 3]],
     h: f64,
     opts: &BezierOptions,
     pos_of: &dyn Fn(DVec2) -> DVec3,
-) -> f64 {
+) -> (f64, bool) {
     let edges = edges_sorted(tris);
     let (mut sl, mut nb) = (0.0, 0.0);
     for ((a, b), _) in &edges {
@@ -775,13 +808,21 @@ fn force_step(
         }
     }
     let mut moved = 0.0f64;
+    let mut became_boundary = false;
     for i in 0..pts.len() {
         if kind[i] == Kind::Fixed {
             continue;
         }
+        let mut joined = false;
         let target = pts[i] + opts.dt * force[i];
         let new_uv = if opts.in_space {
             let q = p.project(target, uv[i], None);
+            // As in DistMesh, a node pushed out of the trimmed domain becomes a boundary node.
+            if kind[i] == Kind::Interior && p.trim_value(q) > 0.0 {
+                kind[i] = Kind::Trim;
+                became_boundary = true;
+                joined = true;
+            }
             if kind[i] == Kind::Trim {
                 // Two steps (eq. 3.31, 3.32): the free projection, then back onto the curve,
                 // repeated so the pair settles at the constrained minimum.
@@ -795,6 +836,11 @@ fn force_step(
             }
         } else {
             let q = DVec2::new(target.x, target.y).clamp(DVec2::ZERO, DVec2::ONE);
+            if kind[i] == Kind::Interior && p.trim_value(q) > 0.0 {
+                kind[i] = Kind::Trim;
+                became_boundary = true;
+                joined = true;
+            }
             if kind[i] == Kind::Trim {
                 p.to_trim_curve(q, None)
             } else {
@@ -803,10 +849,12 @@ fn force_step(
         };
         let old = uv[i];
         uv[i] = new_uv;
-        let ok = around[i].iter().all(|&k| {
-            let t = tris[k];
-            orient(uv[t[0]], uv[t[1]], uv[t[2]]) > 0.0
-        });
+        // A node that joined the boundary moves regardless: the caller retriangulates.
+        let ok = joined
+            || around[i].iter().all(|&k| {
+                let t = tris[k];
+                orient(uv[t[0]], uv[t[1]], uv[t[2]]) > 0.0
+            });
         if ok {
             let np = pos_of(new_uv);
             moved = moved.max(np.distance(pts[i]) / l0.max(1e-300));
@@ -815,7 +863,7 @@ fn force_step(
             uv[i] = old;
         }
     }
-    moved
+    (moved, became_boundary)
 }
 
 /// A mesh of several patches: the welded points, triangles, and per patch its node indices.
@@ -823,7 +871,7 @@ fn force_step(
 pub struct PatchesMesh {
     /// Welded points.
     pub points: Vec<DVec3>,
-    /// Triangles (each patch's orientation).
+    /// Triangles, oriented consistently across shared sides (the first patch's orientation).
     pub triangles: Vec<[usize; 3]>,
     /// The patches' own meshes before welding.
     pub patches: Vec<PatchMesh>,
@@ -900,6 +948,18 @@ pub fn mesh_patches(patches: &[RationalBezierPatch], opts: &BezierOptions) -> Re
         sides.push(mine);
         shared.push(links);
     }
+    // Orientation: the counter-clockwise boundary loop of the unit square runs sides 0 and 1
+    // forward and sides 2 and 3 backward; two patches are consistently oriented when their
+    // loops run the shared curve in opposite directions. A patch that is not gets its
+    // triangles reversed in the union.
+    let dir = |s: usize| if s < 2 { 1i32 } else { -1 };
+    let mut reversed = vec![false; patches.len()];
+    for k in 0..patches.len() {
+        if let Some((s, (j, t, rev))) = shared[k].iter().enumerate().find_map(|(s, l)| l.map(|l| (s, l))) {
+            let mine = dir(s) * if rev { -1 } else { 1 };
+            reversed[k] = reversed[j] ^ (mine == dir(t));
+        }
+    }
     let mut out = PatchesMesh::default();
     // Global index of each side node, per patch and side, in the order of the side parameters.
     let mut side_global: Vec<[Vec<usize>; 4]> = Vec::new();
@@ -943,7 +1003,15 @@ pub fn mesh_patches(patches: &[RationalBezierPatch], opts: &BezierOptions) -> Re
             map.push(g);
         }
         side_global.push(mine);
-        out.triangles.extend(pm.triangles.iter().map(|t| t.map(|i| map[i])));
+        let flip = reversed[k];
+        out.triangles.extend(pm.triangles.iter().map(|t| {
+            let g = t.map(|i| map[i]);
+            if flip {
+                [g[0], g[2], g[1]]
+            } else {
+                g
+            }
+        }));
         out.patches.push(pm);
     }
     Ok(out)
