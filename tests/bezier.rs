@@ -136,6 +136,17 @@ fn figure_3_8_targets() {
     let q = quality(&space, h);
     header();
     row("fig 3-8 style targets", &q, "issue: mean q >= 0.95, min angle >= 25");
+    // Nodes on the patch: projecting each node again (damped Newton, eq. 3.29) moves it by
+    // less than 1e-10.
+    let pm = &space.patches[0];
+    let p = distorted();
+    let mut worst = 0.0f64;
+    for (i, &x) in pm.points.iter().enumerate() {
+        let uv = p.project(x, pm.uv[i], None);
+        worst = worst.max(p.point(uv).distance(x));
+    }
+    println!("Newton re-projection residual: {worst:.1e}");
+    assert!(worst <= 1e-10, "{worst}");
     assert!(q.mean_q >= 0.95, "mean q {}", q.mean_q);
     assert!(q.min_angle >= 25.0, "min angle {}", q.min_angle);
 }
@@ -296,4 +307,47 @@ fn derivatives_match_differences() {
     let n = at.ru.cross(at.rv).normalize();
     let uv = p.project(at.r + 0.01 * n, DVec2::new(0.45, 0.55), None);
     assert!((uv - DVec2::new(0.4, 0.6)).length() <= 1e-9, "{uv}");
+}
+
+#[test]
+fn cli_bezier_patches_file() {
+    let dir = std::env::temp_dir().join(format!("trussmesh-bezier-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let json = dir.join("patch.json");
+    std::fs::write(
+        &json,
+        r#"{"patches": [{"degree": [2, 2],
+  "control": [[0,0,0],[0.3,0,0.2],[2,0,0],[0,1,0.3],[0.4,0.6,1.0],[2,1.2,0.4],[0,2,0],[0.8,2,0.3],[2.2,2.4,0.2]],
+  "weights": [1,3,1,0.5,2,1,1,0.4,2], "trim": "(u-0.55)^2 + (v-0.5)^2 - 0.35^2"}]}"#,
+    )
+    .unwrap();
+    let obj = dir.join("patch.obj");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_trussmesh"))
+        .args(["surface", "--bezier"])
+        .arg(&json)
+        .args(["--h0", "0.1", "-o"])
+        .arg(&obj)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout} {}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("min angle"), "{stdout}");
+    let text = std::fs::read_to_string(&obj).unwrap();
+    assert!(text.lines().filter(|l| l.starts_with("f ")).count() > 100);
+    // Bad files: a wrong count, x in the trim, garbage.
+    for bad in [
+        r#"{"patches": [{"degree": [2, 2], "control": [[0,0,0]], "weights": [1]}]}"#,
+        r#"{"patches": [{"degree": [1, 1], "control": [[0,0,0],[1,0,0],[0,1,0],[1,1,0]], "weights": [1,1,1,1], "trim": "x - 0.5"}]}"#,
+        "not json",
+    ] {
+        std::fs::write(&json, bad).unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_trussmesh"))
+            .args(["surface", "--bezier"])
+            .arg(&json)
+            .args(["--h0", "0.1"])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "{bad}: {}", String::from_utf8_lossy(&out.stderr));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
