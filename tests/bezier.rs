@@ -107,10 +107,10 @@ fn manifold_with_boundary(m: &PatchesMesh) -> (usize, usize) {
 fn figure_3_8_space_beats_parameter_plane() {
     let h = 0.12;
     let p = distorted();
-    let space = mesh_patches(&[p.clone()], &BezierOptions::new(h)).unwrap();
+    let space = mesh_patches(std::slice::from_ref(&p), &BezierOptions::new(h)).unwrap();
     let mut plane_opts = BezierOptions::new(h);
     plane_opts.in_space = false;
-    let plane = mesh_patches(&[p.clone()], &plane_opts).unwrap();
+    let plane = mesh_patches(std::slice::from_ref(&p), &plane_opts).unwrap();
     let qs = quality(&space, h);
     let qp = quality(&plane, h);
     header();
@@ -182,7 +182,7 @@ fn trimmed_patch_boundary_on_trim_curve() {
     let trim: Arc<dyn Fn(f64, f64) -> f64 + Send + Sync> =
         Arc::new(|u: f64, v: f64| (u - 0.55).powi(2) + (v - 0.5).powi(2) - 0.35f64.powi(2));
     let p = distorted().with_trim(trim.clone());
-    let m = mesh_patches(&[p.clone()], &BezierOptions::new(h)).unwrap();
+    let m = mesh_patches(std::slice::from_ref(&p), &BezierOptions::new(h)).unwrap();
     let q = quality(&m, h);
     header();
     row("fig 3-8 style, trimmed by a circle", &q, "");
@@ -275,11 +275,11 @@ fn bad_input_is_a_typed_error() {
     assert!(RationalBezierPatch::new((0, 2), vec![DVec3::ZERO; 3], vec![1.0; 3]).is_err());
     let p = distorted();
     for h in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        assert!(mesh_patches(&[p.clone()], &BezierOptions::new(h)).is_err());
+        assert!(mesh_patches(std::slice::from_ref(&p), &BezierOptions::new(h)).is_err());
     }
     assert!(mesh_patches(&[], &BezierOptions::new(0.1)).is_err());
     assert!(matches!(
-        mesh_patches(&[p.clone()], &BezierOptions::new(1e-5)),
+        mesh_patches(std::slice::from_ref(&p), &BezierOptions::new(1e-5)),
         Err(trussmesh::Error::TooManyElements { .. })
     ));
     // A trim that removes everything.

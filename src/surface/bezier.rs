@@ -296,8 +296,9 @@ impl BezierOptions {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
     Interior,
-    /// On the trim curve; `fix` holds a patch side it also lies on (then it cannot move).
+    /// On the trim curve: slides along it (eq. 3.31, 3.32).
     Trim,
+    /// A side node (kept where arc length put it) or a trim-curve end on a side.
     Fixed,
 }
 
@@ -437,10 +438,10 @@ fn axis_params(p: &RationalBezierPatch, axis: usize, h: f64) -> Vec<f64> {
         let at = |t: f64| if axis == 0 { DVec2::new(t, o) } else { DVec2::new(o, t) };
         let mut prev = p.point(at(0.0));
         let mut acc = 0.0;
-        for i in 1..=FINE {
+        for (i, c) in cum.iter_mut().enumerate().skip(1) {
             let q = p.point(at(i as f64 / FINE as f64));
             acc += prev.distance(q);
-            cum[i] += acc / ACROSS as f64;
+            *c += acc / ACROSS as f64;
             prev = q;
         }
     }
@@ -505,7 +506,6 @@ pub fn mesh_patch_with_sides(
         for (i, &u) in us.iter().enumerate().take(us.len().saturating_sub(1)).skip(1) {
             // Shift odd rows by half a cell: a start close to equilateral.
             let u = if j % 2 == 1 && i + 1 < us.len() { 0.5 * (u + us[i + 1]) } else { u };
-            let _ = i;
             let du = 0.35 * (us[1] - us[0]).min(us[us.len() - 1] - us[us.len() - 2]);
             let dv = 0.35 * (vs[1] - vs[0]).min(vs[vs.len() - 1] - vs[vs.len() - 2]);
             if u < du || u > 1.0 - du || v < dv || v > 1.0 - dv {
