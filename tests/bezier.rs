@@ -282,6 +282,10 @@ fn bad_input_is_a_typed_error() {
         mesh_patches(std::slice::from_ref(&p), &BezierOptions::new(1e-5)),
         Err(trussmesh::Error::TooManyElements { .. })
     ));
+    assert!(matches!(
+        mesh_patches(std::slice::from_ref(&p), &BezierOptions::new(1e-300)),
+        Err(trussmesh::Error::TooManyElements { .. })
+    ));
     // A trim that removes everything.
     let gone = p.with_trim(Arc::new(|_, _| 1.0));
     assert!(mesh_patches(&[gone], &BezierOptions::new(0.1)).is_err());

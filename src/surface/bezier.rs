@@ -344,8 +344,8 @@ impl BezierQuality {
                 min_angle = min_angle.min(ang);
             }
         }
-        let edges = edge_map(tris);
-        let r: Vec<f64> = edges.keys().map(|&(a, b)| points[a].distance(points[b]) / h).collect();
+        // Sorted edges: the sums, and so the figures, are the same bits every run.
+        let r: Vec<f64> = edges_sorted(tris).iter().map(|&((a, b), _)| points[a].distance(points[b]) / h).collect();
         let n = r.len().max(1) as f64;
         let mean = r.iter().sum::<f64>() / n;
         let var = r.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
@@ -543,6 +543,8 @@ pub fn mesh_patch_with_sides(
 
 /// Density control runs every this many force iterations (not in the last stretch).
 const DENSITY_EVERY: usize = 20;
+/// Largest node count [`mesh_patches`] accepts (estimated from the control polygon's box).
+const MAX_NODES: f64 = 4e6;
 
 /// Delaunay triangulation of the nodes in (u, v), cut to the trim (triangles whose centroid is
 /// outside are dropped, their outside nodes moved onto the curve), compacted to the used nodes.
@@ -920,6 +922,20 @@ pub fn mesh_patches(patches: &[RationalBezierPatch], opts: &BezierOptions) -> Re
     }
     if !(opts.h0 > 0.0 && opts.h0.is_finite()) {
         return Err(Error::BadSize(format!("h0 = {} must be positive and finite", opts.h0)));
+    }
+    // Refuse a size far below the patches before any allocation: the control polygon bounds
+    // the patch (convex hull property), its diagonal bounds every side's length.
+    let mut est = 0.0;
+    for p in patches {
+        let (lo, hi) =
+            p.control.iter().fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(lo, hi), c| {
+                (lo.min(*c), hi.max(*c))
+            });
+        let d = (hi - lo).length();
+        est += (d / opts.h0 + 1.0).powi(2);
+    }
+    if est > MAX_NODES {
+        return Err(Error::TooManyElements { estimated: est.min(u64::MAX as f64) as u64, limit: 2 * MAX_NODES as u64 });
     }
     let mut sides: Vec<[Vec<f64>; 4]> = Vec::new();
     let mut shared: Vec<[Option<(usize, usize, bool)>; 4]> = Vec::new();
