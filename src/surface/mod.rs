@@ -1,4 +1,5 @@
-//! Surface meshes of implicit surfaces phi(x) = 0 (seed section 3.6.1).
+//! Surface meshes of implicit surfaces phi(x) = 0 (seed section 3.6.1); rational Bézier
+//! patches meshed in space (section 3.6.2) are in [`bezier`].
 //!
 //! The seed's recipe: the force iteration of the 2-D mesher with nodes moving in space and every
 //! node projected back onto phi = 0 after every step, connectivity kept good by local flips in
@@ -16,6 +17,7 @@
 //! Sizes are uniform or follow the maximum principal curvature with gradient limiting (seed
 //! chapter 4).
 
+pub mod bezier;
 pub mod geom;
 pub mod march;
 pub mod ops;
