@@ -1166,29 +1166,7 @@ fn ring_patch(
         }
         tq([pa, ci, cj, ck]).min(tq([ci, cj, ck, pb]))
     };
-    let mut best = [[f64::INFINITY; 12]; 12];
-    let mut choice = [[0usize; 12]; 12];
-    for len in 2..n {
-        for i in 0..n - len {
-            let j = i + len;
-            let mut b = -1.0;
-            for k in i + 1..j {
-                let q = tri_q(i, k, j);
-                if q < 0.0 {
-                    continue;
-                }
-                let left = if k > i + 1 { best[i][k] } else { f64::INFINITY };
-                let right = if j > k + 1 { best[k][j] } else { f64::INFINITY };
-                let v = q.min(left).min(right);
-                if v > b {
-                    b = v;
-                    choice[i][j] = k;
-                }
-            }
-            best[i][j] = b;
-        }
-    }
-    let worst = best[0][n - 1];
+    let (worst, choice) = crate::topology::tet_ops::best_ring_triangulation(n, tri_q);
     if worst < 0.0 {
         return Ok(None);
     }

@@ -12,7 +12,7 @@
 mod delaunay;
 mod queue;
 mod tet_delaunay;
-mod tet_ops;
+pub(crate) mod tet_ops;
 mod tet_validate;
 mod tetmesh;
 mod tri_ops;

@@ -302,30 +302,7 @@ impl TetMesh {
             }
             crate::quality::tet_radius_ratio([pa, ci, cj, ck]).min(crate::quality::tet_radius_ratio([ci, cj, ck, pb]))
         };
-        // best[i][j]: best worst-quality of the sub-polygon ci..cj (j > i + 1); choice[i][j] = k.
-        let mut best = [[f64::INFINITY; 12]; 12];
-        let mut choice = [[0usize; 12]; 12];
-        for len in 2..n {
-            for i in 0..n - len {
-                let j = i + len;
-                let mut b = -1.0;
-                for k in i + 1..j {
-                    let q = tri_q(i, k, j);
-                    if q < 0.0 {
-                        continue;
-                    }
-                    let left = if k > i + 1 { best[i][k] } else { f64::INFINITY };
-                    let right = if j > k + 1 { best[k][j] } else { f64::INFINITY };
-                    let v = q.min(left).min(right);
-                    if v > b {
-                        b = v;
-                        choice[i][j] = k;
-                    }
-                }
-                best[i][j] = b;
-            }
-        }
-        let worst = best[0][n - 1];
+        let (worst, choice) = best_ring_triangulation(n, tri_q);
         // No valid triangulation of the ring.
         if worst < 0.0 {
             return Err(Refusal::NotConvex);
@@ -838,4 +815,38 @@ mod tests {
         assert_eq!(h.remove_boundary_tet(inner), Err(Refusal::TooSmall));
         assert!(h == g);
     }
+}
+
+/// The triangulation of a ring of n <= 12 vertices (edge removal, Shewchuk 2002; the
+/// polygon triangulation by dynamic programming of Klincsek 1980) that maximises the worst
+/// `tri_q(i, k, j)` over its triangles (negative: not allowed). Returns that worst value
+/// (negative when no triangulation is allowed) and `choice[i][j]`, the apex k over the
+/// sub-polygon i..j.
+pub(crate) fn best_ring_triangulation(
+    n: usize,
+    tri_q: impl Fn(usize, usize, usize) -> f64,
+) -> (f64, [[usize; 12]; 12]) {
+    let mut best = [[f64::INFINITY; 12]; 12];
+    let mut choice = [[0usize; 12]; 12];
+    for len in 2..n {
+        for i in 0..n - len {
+            let j = i + len;
+            let mut b = -1.0;
+            for k in i + 1..j {
+                let q = tri_q(i, k, j);
+                if q < 0.0 {
+                    continue;
+                }
+                let left = if k > i + 1 { best[i][k] } else { f64::INFINITY };
+                let right = if j > k + 1 { best[k][j] } else { f64::INFINITY };
+                let v = q.min(left).min(right);
+                if v > b {
+                    b = v;
+                    choice[i][j] = k;
+                }
+            }
+            best[i][j] = b;
+        }
+    }
+    (best[0][n - 1], choice)
 }
