@@ -1170,27 +1170,7 @@ fn ring_patch(
     if worst < 0.0 {
         return Ok(None);
     }
-    let mut new: SmallVec<[([TVertexId; 4], u32); 16]> = SmallVec::new();
-    let mut stack: SmallVec<[(usize, usize); 12]> = SmallVec::new();
-    stack.push((0, n - 1));
-    let mut diagonals: SmallVec<[(usize, usize); 12]> = SmallVec::new();
-    while let Some((i, j)) = stack.pop() {
-        if j < i + 2 {
-            continue;
-        }
-        let k = choice[i][j];
-        let (ci, ck, cj) = (s.ring[i], s.ring[k], s.ring[j]);
-        new.push(([s.a, ci, ck, cj], label));
-        new.push(([ci, ck, cj, s.b], label));
-        stack.push((i, k));
-        stack.push((k, j));
-        if k > i + 1 {
-            diagonals.push((i, k));
-        }
-        if j > k + 1 {
-            diagonals.push((k, j));
-        }
-    }
+    let (new, mut diagonals) = crate::topology::tet_ops::ring_tets(s.a, s.b, &s.ring, &choice, label);
     if !s.closed {
         diagonals.push((0, n - 1));
     }

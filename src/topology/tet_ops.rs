@@ -23,7 +23,7 @@ pub(crate) fn positive(s: Sign) -> Result<(), Refusal> {
     }
 }
 
-type NewTets = SmallVec<[([TVertexId; 4], u32); 16]>;
+pub(crate) type NewTets = SmallVec<[([TVertexId; 4], u32); 16]>;
 /// Outside faces of a patch: key, what lies across, matched yet.
 type OuterFaces = SmallVec<[([TVertexId; 3], Option<(TetId, u8)>, bool); 24]>;
 
@@ -307,27 +307,7 @@ impl TetMesh {
         if worst < 0.0 {
             return Err(Refusal::NotConvex);
         }
-        let mut new: NewTets = SmallVec::new();
-        let mut stack: SmallVec<[(usize, usize); 12]> = SmallVec::new();
-        stack.push((0, n - 1));
-        let mut diagonals: SmallVec<[(usize, usize); 12]> = SmallVec::new();
-        while let Some((i, j)) = stack.pop() {
-            if j < i + 2 {
-                continue;
-            }
-            let k = choice[i][j];
-            let (ci, ck, cj) = (s.ring[i], s.ring[k], s.ring[j]);
-            new.push(([s.a, ci, ck, cj], label));
-            new.push(([ci, ck, cj, s.b], label));
-            stack.push((i, k));
-            stack.push((k, j));
-            if k > i + 1 {
-                diagonals.push((i, k));
-            }
-            if j > k + 1 {
-                diagonals.push((k, j));
-            }
-        }
+        let (new, diagonals) = ring_tets(s.a, s.b, &s.ring, &choice, label);
         // The new diagonals must not exist already; for n = 3 the new face must not.
         for &(i, j) in &diagonals {
             if (j + 1) % n != i && (i + 1) % n != j && self.find_edge(s.ring[i], s.ring[j]).is_some() {
@@ -849,4 +829,38 @@ pub(crate) fn best_ring_triangulation(
         }
     }
     (best[0][n - 1], choice)
+}
+
+/// The tets of a ring triangulation chosen by [`best_ring_triangulation`]: two per ring
+/// triangle (a on one side, b on the other), and the diagonals of the ring it uses.
+pub(crate) fn ring_tets(
+    a: TVertexId,
+    b: TVertexId,
+    ring: &[TVertexId],
+    choice: &[[usize; 12]; 12],
+    label: u32,
+) -> (NewTets, SmallVec<[(usize, usize); 12]>) {
+    let n = ring.len();
+    let mut new: NewTets = SmallVec::new();
+    let mut stack: SmallVec<[(usize, usize); 12]> = SmallVec::new();
+    stack.push((0, n - 1));
+    let mut diagonals: SmallVec<[(usize, usize); 12]> = SmallVec::new();
+    while let Some((i, j)) = stack.pop() {
+        if j < i + 2 {
+            continue;
+        }
+        let k = choice[i][j];
+        let (ci, ck, cj) = (ring[i], ring[k], ring[j]);
+        new.push(([a, ci, ck, cj], label));
+        new.push(([ci, ck, cj, b], label));
+        stack.push((i, k));
+        stack.push((k, j));
+        if k > i + 1 {
+            diagonals.push((i, k));
+        }
+        if j > k + 1 {
+            diagonals.push((k, j));
+        }
+    }
+    (new, diagonals)
 }
