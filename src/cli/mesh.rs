@@ -408,6 +408,23 @@ fn progress_bar(quiet: bool) -> Option<ProgressBar> {
     Some(pb)
 }
 
+/// The progress callback both meshers take: the bar appears once a run has taken a second.
+fn progress_callback(pb: ProgressBar) -> impl Fn(usize, usize) + Send + Sync + 'static {
+    let start = Instant::now();
+    let shown = AtomicBool::new(false);
+    move |it, cap| {
+        if !shown.load(Ordering::Relaxed) {
+            if start.elapsed() < Duration::from_secs(1) {
+                return;
+            }
+            shown.store(true, Ordering::Relaxed);
+            pb.set_draw_target(ProgressDrawTarget::stderr());
+        }
+        pb.set_length(cap as u64);
+        pb.set_position(it as u64);
+    }
+}
+
 impl Job {
     /// The 2-D mesher's options.
     pub fn options2(&self, progress: Option<ProgressBar>) -> Options2 {
@@ -437,19 +454,7 @@ impl Job {
             o = o.with_projection(p.into());
         }
         if let Some(pb) = progress {
-            let start = Instant::now();
-            let shown = AtomicBool::new(false);
-            o = o.with_progress(move |it, cap| {
-                if !shown.load(Ordering::Relaxed) {
-                    if start.elapsed() < Duration::from_secs(1) {
-                        return;
-                    }
-                    shown.store(true, Ordering::Relaxed);
-                    pb.set_draw_target(ProgressDrawTarget::stderr());
-                }
-                pb.set_length(cap as u64);
-                pb.set_position(it as u64);
-            });
+            o = o.with_progress(progress_callback(pb));
         }
         o
     }
@@ -473,19 +478,7 @@ impl Job {
             o = o.with_projection(p.into());
         }
         if let Some(pb) = progress {
-            let start = Instant::now();
-            let shown = AtomicBool::new(false);
-            o = o.with_progress(move |it, cap| {
-                if !shown.load(Ordering::Relaxed) {
-                    if start.elapsed() < Duration::from_secs(1) {
-                        return;
-                    }
-                    shown.store(true, Ordering::Relaxed);
-                    pb.set_draw_target(ProgressDrawTarget::stderr());
-                }
-                pb.set_length(cap as u64);
-                pb.set_position(it as u64);
-            });
+            o = o.with_progress(progress_callback(pb));
         }
         o
     }
