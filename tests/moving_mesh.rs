@@ -78,8 +78,15 @@ fn hole_moves_through_a_rectangle_in_100_steps() {
     }
 }
 
+/// Issue 10's target: with freezing past one ring of the motion, fewer than 30% of the nodes
+/// move in any step, and every step keeps q min >= 0.5 and q mean >= 0.95. Measured:
+///
+/// | steps | freezing | worst q min | worst q mean | most nodes moved in a step | mean time per step (s) |
+/// |---|---|---|---|---|---|
+/// | 100 | 1 ring(s) | 0.669 | 0.9649 | 26% | 0.0065 |
+///
+/// (The node count stays between 328 and 337; without freezing it grows from 340 to 400.)
 #[test]
-#[ignore = "partial: at most 27% of nodes move in a step (target < 30%) and q min stays >= 0.549, but q mean drifts to 0.9445 (target 0.95) in the wake of the hole; with 2 rings q mean 0.9556 but 39% of nodes move"]
 fn hole_moves_with_freezing() {
     let (max_moved, failure) = hundred_steps(Some(1));
     assert!(max_moved < 0.3, "{:.0}% of nodes moved in one step", 100.0 * max_moved);
