@@ -56,21 +56,85 @@ pub fn incircle(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> Sign {
     Sign::of(robust::incircle(c2(a), c2(b), c2(c), c2(d)))
 }
 
+// Error bounds of the floating-point stage (Shewchuk 1997, section 4.3: o3derrboundA and
+// isperrboundA), with epsilon = 2^-53.
+const EPS: f64 = 1.0 / 9_007_199_254_740_992.0;
+const O3D_BOUND: f64 = (7.0 + 56.0 * EPS) * EPS;
+const ISP_BOUND: f64 = (16.0 + 224.0 * EPS) * EPS;
+
 /// Positive when d lies below the plane of a, b, c, i.e. when (a, b, c, d) is a positively
 /// oriented tetrahedron in the convention det[b-a, c-a, d-a] > 0.
-#[inline]
+#[inline(always)]
 pub fn orient3d(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
-    // robust's orient3d is positive when d is below the plane (a, b, c seen counter-clockwise
-    // from above), which is det[a-d, b-d, c-d] > 0 = -det[b-a, c-a, d-a]; flip it.
+    // The floating-point stage of Shewchuk's orient3d, inlined because the 3-D Delaunay kernel
+    // and the step control call it in their innermost loops; undecided cases go to `robust`.
+    // Shewchuk's determinant is det[a-d, b-d, c-d] = -det[b-a, c-a, d-a], hence the negations.
+    let (ad, bd, cd) = (a - d, b - d, c - d);
+    let (bdxcdy, cdxbdy) = (bd.x * cd.y, cd.x * bd.y);
+    let (cdxady, adxcdy) = (cd.x * ad.y, ad.x * cd.y);
+    let (adxbdy, bdxady) = (ad.x * bd.y, bd.x * ad.y);
+    let det = ad.z * (bdxcdy - cdxbdy) + bd.z * (cdxady - adxcdy) + cd.z * (adxbdy - bdxady);
+    let permanent = (bdxcdy.abs() + cdxbdy.abs()) * ad.z.abs()
+        + (cdxady.abs() + adxcdy.abs()) * bd.z.abs()
+        + (adxbdy.abs() + bdxady.abs()) * cd.z.abs();
+    let bound = O3D_BOUND * permanent;
+    if det > bound {
+        return Sign::Negative;
+    }
+    if -det > bound {
+        return Sign::Positive;
+    }
+    orient3d_exact(a, b, c, d)
+}
+
+#[cold]
+#[inline(never)]
+fn orient3d_exact(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
     Sign::of(-robust::orient3d(c3(a), c3(b), c3(c), c3(d)))
 }
 
 /// Positive when e lies strictly inside the sphere through the positively oriented (a, b, c, d)
 /// (orientation as in [`orient3d`]).
-#[inline]
+#[inline(always)]
 pub fn insphere(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
-    // robust's insphere is positive inside for its own orientation convention, which is the
-    // opposite of ours, so negate.
+    // The floating-point stage of Shewchuk's insphere, inlined for the same reason as
+    // `orient3d`. His sign convention is the opposite of ours (he orients the other way).
+    let (ae, be, ce, de) = (a - e, b - e, c - e, d - e);
+    let (aexbey, bexaey) = (ae.x * be.y, be.x * ae.y);
+    let (bexcey, cexbey) = (be.x * ce.y, ce.x * be.y);
+    let (cexdey, dexcey) = (ce.x * de.y, de.x * ce.y);
+    let (dexaey, aexdey) = (de.x * ae.y, ae.x * de.y);
+    let (aexcey, cexaey) = (ae.x * ce.y, ce.x * ae.y);
+    let (bexdey, dexbey) = (be.x * de.y, de.x * be.y);
+    let (ab, bc, cd, da) = (aexbey - bexaey, bexcey - cexbey, cexdey - dexcey, dexaey - aexdey);
+    let (ac, bd) = (aexcey - cexaey, bexdey - dexbey);
+    let abc = ae.z * bc - be.z * ac + ce.z * ab;
+    let bcd = be.z * cd - ce.z * bd + de.z * bc;
+    let cda = ce.z * da + de.z * ac + ae.z * cd;
+    let dab = de.z * ab + ae.z * bd + be.z * da;
+    let (alift, blift, clift, dlift) =
+        (ae.length_squared(), be.length_squared(), ce.length_squared(), de.length_squared());
+    let det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
+    let (az, bz, cz, dz) = (ae.z.abs(), be.z.abs(), ce.z.abs(), de.z.abs());
+    let (p_ab, p_bc, p_cd) = (aexbey.abs() + bexaey.abs(), bexcey.abs() + cexbey.abs(), cexdey.abs() + dexcey.abs());
+    let (p_da, p_ac, p_bd) = (dexaey.abs() + aexdey.abs(), aexcey.abs() + cexaey.abs(), bexdey.abs() + dexbey.abs());
+    let permanent = (p_cd * bz + p_bd * cz + p_bc * dz) * alift
+        + (p_da * cz + p_ac * dz + p_cd * az) * blift
+        + (p_ab * dz + p_bd * az + p_da * bz) * clift
+        + (p_bc * az + p_ac * bz + p_ab * cz) * dlift;
+    let bound = ISP_BOUND * permanent;
+    if det > bound {
+        return Sign::Negative;
+    }
+    if -det > bound {
+        return Sign::Positive;
+    }
+    insphere_exact(a, b, c, d, e)
+}
+
+#[cold]
+#[inline(never)]
+fn insphere_exact(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
     Sign::of(-robust::insphere(c3(a), c3(b), c3(c), c3(d), c3(e)))
 }
 

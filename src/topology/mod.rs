@@ -12,6 +12,7 @@
 mod delaunay;
 mod queue;
 mod tet_delaunay;
+mod tet_delaunay_kernel;
 pub(crate) mod tet_ops;
 mod tet_validate;
 mod tetmesh;
