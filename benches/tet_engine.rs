@@ -70,7 +70,7 @@ fn delaunay(c: &mut Criterion) {
     let n = 100_000;
     let pts = random_points_3d(n, SEED);
     g.throughput(Throughput::Elements(n as u64));
-    g.bench_function(format!("incremental flips {n}"), |b| b.iter(|| TetMesh::delaunay(&pts).unwrap().0.num_tets()));
+    g.bench_function(format!("incremental cavities {n}"), |b| b.iter(|| TetMesh::delaunay(&pts).unwrap().0.num_tets()));
     g.finish();
 }
 
@@ -81,7 +81,7 @@ fn delaunay_1e6_once() {
     let (m, _) = TetMesh::delaunay(&pts).unwrap();
     let dt = t.elapsed().as_secs_f64();
     println!(
-        "tet_delaunay/incremental flips {n} (one run): {dt:.2} s, {:.0} points/s, {} tets",
+        "tet_delaunay/incremental cavities {n} (one run): {dt:.2} s, {:.0} points/s, {} tets",
         n as f64 / dt,
         m.num_tets()
     );

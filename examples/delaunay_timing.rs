@@ -1,4 +1,4 @@
-//! Times the stages of a 3-D Delaunay tetrahedralization of uniform random points.
+//! Times the 3-D Delaunay tetrahedralization of uniform random points (one run, one thread).
 //! `cargo run --release --example delaunay_timing -- 1000000`
 use std::time::Instant;
 use trussmesh::testing::{random_points_3d, SEED};
