@@ -62,6 +62,11 @@ pub trait Implicit3: Sync + Send {
         }
         g
     }
+    /// The value and the gradient together; geometries that compute both in one pass (compiled
+    /// expressions) override it. Must agree bit for bit with `value` and `gradient`.
+    fn value_and_gradient(&self, p: DVec3) -> (f64, DVec3) {
+        (self.value(p), self.gradient(p))
+    }
     /// The Hessian, if the geometry can give it.
     fn hessian(&self, _p: DVec3) -> Option<DMat3> {
         None

@@ -16,8 +16,7 @@ const PROJECT_STEPS: usize = 60;
 pub fn project(phi: &dyn Implicit3, p: DVec3, tol: f64) -> Result<DVec3, Error> {
     let mut x = p;
     for _ in 0..PROJECT_STEPS {
-        let v = phi.value(x);
-        let g = phi.gradient(x);
+        let (v, g) = phi.value_and_gradient(x);
         if !v.is_finite() {
             return Err(Error::NonFinite { what: "phi", value: v, at: x.to_array() });
         }

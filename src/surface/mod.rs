@@ -242,6 +242,7 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
         }
         if level > 0 {
             counts.splits += ops::subdivide(&mut m, phi, tol)?;
+            m = ops::relayout(&m)?;
         }
     }
     counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);

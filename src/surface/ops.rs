@@ -7,6 +7,7 @@ use crate::quality::triangle_q3;
 use crate::topology::{HalfEdgeId, TriMesh, VertexId};
 use crate::Error;
 use glam::DVec3;
+use slotmap::SecondaryMap;
 
 /// The smallest cosine between a new triangle's normal and grad phi at its centroid that a
 /// flip or collapse may leave (60 degrees of normal deviation).
@@ -23,10 +24,23 @@ pub struct OpCounts {
     pub flips: usize,
 }
 
-/// Every edge as its two end vertices, in arena order (a stable list to walk while the mesh
-/// changes; an edge gone by the time it is reached is skipped).
-pub fn edge_list(m: &TriMesh<DVec3>) -> Vec<(VertexId, VertexId)> {
-    m.edge_ids().map(|h| (m.origin(h), m.dest(h))).collect()
+/// Every edge as one half-edge and its two end vertices, in arena order: a stable list to walk
+/// while the mesh changes. [`edge_now`] finds the edge again.
+pub fn edge_list(m: &TriMesh<DVec3>) -> Vec<(HalfEdgeId, VertexId, VertexId)> {
+    m.edge_ids().map(|h| (h, m.origin(h), m.dest(h))).collect()
+}
+
+/// The half-edge a -> b of a listed edge now, or `None` if the edge is gone. The listed
+/// half-edge usually still runs a -> b (an O(1) check); otherwise a search around a.
+#[inline]
+pub fn edge_now(m: &TriMesh<DVec3>, (h, a, b): (HalfEdgeId, VertexId, VertexId)) -> Option<HalfEdgeId> {
+    if m.contains_half_edge(h) && m.origin(h) == a && m.dest(h) == b {
+        return Some(h);
+    }
+    if !m.contains_vertex(a) || !m.contains_vertex(b) {
+        return None;
+    }
+    m.find_half_edge(a, b)
 }
 
 /// Why a flip is wanted.
@@ -42,19 +56,30 @@ pub enum FlipGoal {
 const MIN_Q_VALENCE: f64 = 0.4;
 
 /// Tries to flip the edge of `h` toward `goal`. Returns whether it flipped. The new triangles
-/// must face outward (normal deviation below 60 degrees).
-pub fn try_flip(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, h: HalfEdgeId, goal: FlipGoal) -> bool {
-    let Ok(plan) = m.check_flip(h) else {
+/// must face outward (normal deviation below 60 degrees). `valence` holds every vertex's
+/// valence for [`FlipGoal::Valence`] and is kept up to date.
+pub fn try_flip(
+    m: &mut TriMesh<DVec3>,
+    phi: &dyn Implicit3,
+    h: HalfEdgeId,
+    goal: FlipGoal,
+    valence: &mut SecondaryMap<VertexId, u32>,
+) -> bool {
+    // The cheap tests first (quality, valence), then the engine's check.
+    let t = m.twin(h);
+    if m.face_of(h).is_none() || m.face_of(t).is_none() {
         return false;
-    };
-    let (a, b, c, d) = (plan.a, plan.b, plan.c, plan.d);
+    }
+    let (a, b) = (m.origin(h), m.origin(t));
+    let (c, d) = (m.dest(m.next(h)), m.dest(m.next(t)));
     let (pa, pb, pc, pd) = (m.pos(a), m.pos(b), m.pos(c), m.pos(d));
     let old = triangle_q3([pa, pb, pc]).min(triangle_q3([pb, pa, pd]));
     let new = triangle_q3([pc, pa, pd]).min(triangle_q3([pd, pb, pc]));
     let wanted = match goal {
         FlipGoal::Quality => new > old + 1e-9,
         FlipGoal::Valence => {
-            let (va, vb, vc, vd) = (m.valence(a) as i64, m.valence(b) as i64, m.valence(c) as i64, m.valence(d) as i64);
+            let val = |v: VertexId| valence.get(v).map_or_else(|| m.valence(v), |&k| k as usize) as i64;
+            let (va, vb, vc, vd) = (val(a), val(b), val(c), val(d));
             // A vertex of valence 3 would drop to 2: never.
             if va <= 3 || vb <= 3 {
                 return false;
@@ -65,22 +90,51 @@ pub fn try_flip(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, h: HalfEdgeId, goal
             after < before && new >= MIN_Q_VALENCE.min(old)
         }
     };
-    if !wanted || !faces_out(phi, pc, pa, pd, FOLD_COS) || !faces_out(phi, pd, pb, pc, FOLD_COS) {
+    if !wanted {
+        return false;
+    }
+    let Ok(plan) = m.check_flip(h) else {
+        return false;
+    };
+    debug_assert!(plan.a == a && plan.b == b && plan.c == c && plan.d == d);
+    if !faces_out(phi, pc, pa, pd, FOLD_COS) || !faces_out(phi, pd, pb, pc, FOLD_COS) {
         return false;
     }
     m.apply_flip(plan);
+    if goal == FlipGoal::Valence {
+        for (v, delta) in [(a, -1i32), (b, -1), (c, 1), (d, 1)] {
+            if let Some(k) = valence.get_mut(v) {
+                *k = (*k as i32 + delta) as u32;
+            }
+        }
+    }
     true
+}
+
+/// Every vertex's valence, counted once over the half-edges.
+fn valences(m: &TriMesh<DVec3>) -> SecondaryMap<VertexId, u32> {
+    let mut out: SecondaryMap<VertexId, u32> = SecondaryMap::with_capacity(m.num_vertices());
+    for v in m.vertex_ids() {
+        out.insert(v, 0);
+    }
+    for h in m.half_edge_ids() {
+        if let Some(k) = out.get_mut(m.origin(h)) {
+            *k += 1;
+        }
+    }
+    out
 }
 
 /// Sweeps over all edges flipping toward `goal` until a sweep flips nothing (at most
 /// `max_sweeps`). Returns the number of flips.
 pub fn flip_pass(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, goal: FlipGoal, max_sweeps: usize) -> usize {
     let mut total = 0;
+    let mut valence = if goal == FlipGoal::Valence { valences(m) } else { SecondaryMap::new() };
     for _ in 0..max_sweeps {
         let mut n = 0;
-        for (a, b) in edge_list(m) {
-            if let Some(h) = m.find_half_edge(a, b) {
-                if try_flip(m, phi, h, goal) {
+        for e in edge_list(m) {
+            if let Some(h) = edge_now(m, e) {
+                if try_flip(m, phi, h, goal, &mut valence) {
                     n += 1;
                 }
             }
@@ -103,8 +157,9 @@ pub fn split_long(
     tol: f64,
 ) -> Result<usize, Error> {
     let mut n = 0;
-    for (a, b) in edge_list(m) {
-        let Some(h) = m.find_half_edge(a, b) else { continue };
+    for e in edge_list(m) {
+        let Some(h) = edge_now(m, e) else { continue };
+        let (a, b) = (e.1, e.2);
         let (pa, pb) = (m.pos(a), m.pos(b));
         let mid = 0.5 * (pa + pb);
         if pa.distance(pb) <= hi * size.at(mid) {
@@ -157,11 +212,9 @@ pub fn collapse_short(
     tol: f64,
 ) -> Result<usize, Error> {
     let mut n = 0;
-    for (a, b) in edge_list(m) {
-        if !m.contains_vertex(a) || !m.contains_vertex(b) {
-            continue;
-        }
-        let Some(h) = m.find_half_edge(a, b) else { continue };
+    for e in edge_list(m) {
+        let Some(h) = edge_now(m, e) else { continue };
+        let (a, b) = (e.1, e.2);
         let (pa, pb) = (m.pos(a), m.pos(b));
         let mid = 0.5 * (pa + pb);
         let hm = size.at(mid);
@@ -206,41 +259,74 @@ pub fn smooth_tangential(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, lambda: f6
     Ok(())
 }
 
-/// Moves `v` to `p` unless a triangle around it would fold; returns whether it moved.
+/// Moves `v` to `p` unless a triangle around it would fold (turn its normal more than 90
+/// degrees from grad phi at p); returns whether it moved. One gradient at p serves the whole
+/// star: its triangles are within an edge length of p, where grad phi turns by a few degrees at
+/// most on any surface the mesh resolves, far inside the 90 degrees this test allows.
 pub fn move_if_no_fold(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, v: VertexId, p: DVec3) -> bool {
-    for x in m.outgoing(v) {
-        if m.face_of(x).is_none() {
-            continue;
+    let g = phi.gradient(p);
+    if !(g.length_squared() > 0.0) {
+        return false;
+    }
+    let start = m.vertex(v).out;
+    let mut x = start;
+    loop {
+        if m.face_of(x).is_some() {
+            let y = m.next(x);
+            let (b, c) = (m.pos(m.origin(y)), m.pos(m.dest(y)));
+            let n = (b - p).cross(c - p);
+            if !(n.dot(g) > 0.0) {
+                return false;
+            }
         }
-        let y = m.next(x);
-        if !faces_out(phi, p, m.pos(m.origin(y)), m.pos(m.dest(y)), 0.0) {
-            return false;
+        x = m.next(m.twin(x));
+        if x == start {
+            break;
         }
     }
     m.set_pos_unchecked(v, p);
     true
 }
 
+/// The same surface rebuilt with its vertices in Hilbert-curve order and its faces by their
+/// first vertex there, so that neighbours sit near each other in the arenas. Meshes grown by
+/// splits and subdivision scatter them, and every sweep then waits on cache misses.
+pub fn relayout(m: &TriMesh<DVec3>) -> Result<TriMesh<DVec3>, Error> {
+    let (points, tris, _, _) = m.to_arrays();
+    let order = crate::topology::hilbert_sort_3d(&points);
+    let mut rank = vec![0usize; points.len()];
+    for (r, &i) in order.iter().enumerate() {
+        rank[i] = r;
+    }
+    let pts: Vec<DVec3> = order.iter().map(|&i| points[i]).collect();
+    let mut faces: Vec<[usize; 3]> = tris.iter().map(|t| [rank[t[0]], rank[t[1]], rank[t[2]]]).collect();
+    faces.sort_by_key(|t| (t[0].min(t[1]).min(t[2]), t[0], t[1], t[2]));
+    let (out, _) = TriMesh::from_arrays(&pts, &faces)
+        .map_err(|e| Error::Internal(format!("rebuilding a valid surface mesh failed: {e}")))?;
+    Ok(out)
+}
+
 /// Regular 1-to-4 subdivision: every edge split at its projected midpoint, then every edge
 /// from a new vertex to an old vertex that is not its parent flipped. New vertices get valence
 /// 6, so the irregular vertices of the coarse mesh are all the fine mesh has.
 pub fn subdivide(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, tol: f64) -> Result<usize, Error> {
-    use slotmap::SecondaryMap;
     let mut old: SecondaryMap<VertexId, ()> = SecondaryMap::new();
     for v in m.vertex_ids() {
         old.insert(v, ());
     }
     let mut parent: SecondaryMap<VertexId, (VertexId, VertexId)> = SecondaryMap::new();
     let mut n = 0;
-    for (a, b) in edge_list(m) {
-        let Some(h) = m.find_half_edge(a, b) else { continue };
+    for e in edge_list(m) {
+        let Some(h) = edge_now(m, e) else { continue };
+        let (a, b) = (e.1, e.2);
         let p = project(phi, 0.5 * (m.pos(a) + m.pos(b)), tol)?;
         if let Ok(v) = m.split_edge(h, p) {
             parent.insert(v, (a, b));
             n += 1;
         }
     }
-    for (a, b) in edge_list(m) {
+    for e in edge_list(m) {
+        let (a, b) = (e.1, e.2);
         let (new, o) = if parent.contains_key(a) && old.contains_key(b) {
             (a, b)
         } else if parent.contains_key(b) && old.contains_key(a) {
@@ -252,7 +338,7 @@ pub fn subdivide(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, tol: f64) -> Resul
         if o == p0 || o == p1 {
             continue;
         }
-        if let Some(h) = m.find_half_edge(a, b) {
+        if let Some(h) = edge_now(m, e) {
             // A refused flip leaves a valence defect, never an invalid mesh.
             let _ = m.flip(h);
         }

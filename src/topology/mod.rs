@@ -22,7 +22,7 @@ mod trimesh;
 
 pub use delaunay::hilbert_order;
 pub use queue::QualityQueue;
-pub use tet_delaunay::hilbert_order_3d;
+pub use tet_delaunay::{hilbert_order_3d, hilbert_sort_3d};
 pub use tet_ops::{Flip23Plan, Flip32Plan, TetPatch};
 pub use tetmesh::{EdgeShell, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_OPPOSITE, EDGE_VERTICES, FACE_VERTICES};
 pub use tri_ops::{CollapsePlan, FlipPlan, InsertPlan, SplitPlan};

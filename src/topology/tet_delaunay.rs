@@ -26,22 +26,7 @@ use std::collections::{HashMap, HashSet};
 /// caches) than doubling rounds, and the randomized rounds keep the expected cost bound.
 pub fn hilbert_order_3d(points: &[DVec3]) -> Vec<usize> {
     let n = points.len();
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for p in points {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
-    let span = (hi - lo).max_element().max(f64::MIN_POSITIVE);
-    // Three bits per level of an octree with about one point per cell, plus three to spare:
-    // a finer curve orders nothing better and costs a loop per bit.
-    let levels = (usize::BITS - n.leading_zeros()).div_ceil(3);
-    let bits = (levels + 3).clamp(4, 21);
-    let scale = ((1u64 << bits) - 1) as f64 / span;
-    let key = |i: usize| {
-        let q = (points[i] - lo) * scale;
-        hilbert_index_3d([q.x as u32, q.y as u32, q.z as u32], bits)
-    };
+    let key = hilbert_keys(points);
     // A fixed shuffle, so the order is deterministic.
     let mut idx: Vec<usize> = (0..n).collect();
     // SplitMix64 with a fixed seed.
@@ -66,14 +51,42 @@ pub fn hilbert_order_3d(points: &[DVec3]) -> Vec<usize> {
     ends.push(0);
     ends.reverse();
     for w in ends.windows(2) {
-        let seg = &mut idx[w[0]..w[1]];
-        let mut keyed: Vec<(u64, usize)> = seg.iter().map(|&i| (key(i), i)).collect();
-        keyed.sort_unstable();
-        for (s, (_, i)) in seg.iter_mut().zip(keyed) {
-            *s = i;
-        }
+        idx[w[0]..w[1]].sort_unstable_by_key(|&i| (key[i], i));
     }
     idx
+}
+
+/// Indices of `points` sorted along a 3-D Hilbert curve over their bounding box (ties by
+/// index): a memory order in which neighbours in space are mostly neighbours in memory.
+pub fn hilbert_sort_3d(points: &[DVec3]) -> Vec<usize> {
+    let key = hilbert_keys(points);
+    let mut idx: Vec<usize> = (0..points.len()).collect();
+    idx.sort_unstable_by_key(|&i| (key[i], i));
+    idx
+}
+
+/// Each point's position along the Hilbert curve of an octree over the bounding box.
+fn hilbert_keys(points: &[DVec3]) -> Vec<u64> {
+    let n = points.len();
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in points {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    let span = (hi - lo).max_element().max(f64::MIN_POSITIVE);
+    // Three bits per level of an octree with about one point per cell, plus three to spare:
+    // a finer curve orders nothing better and costs a loop per bit.
+    let levels = (usize::BITS - n.leading_zeros()).div_ceil(3);
+    let bits = (levels + 3).clamp(4, 21);
+    let scale = ((1u64 << bits) - 1) as f64 / span;
+    points
+        .iter()
+        .map(|p| {
+            let q = (*p - lo) * scale;
+            hilbert_index_3d([q.x as u32, q.y as u32, q.z as u32], bits)
+        })
+        .collect()
 }
 
 /// Position along the 3-D Hilbert curve (Skilling's transpose, then bit interleaving).
