@@ -157,6 +157,12 @@ const DENSITY_HI: f64 = 1.6;
 const DENSITY_LO: f64 = 0.5;
 /// Density control runs every this many force iterations, and not in the last stretch.
 const DENSITY_EVERY: usize = 20;
+/// The force loop stops when its quality score has not beaten the best for this many
+/// iterations. On large meshes the largest node move never falls below the tolerance (the
+/// slowest modes of a forward-Euler truss relax in a time that grows with the square of the
+/// mesh diameter in edges), while the quality stops changing after a few dozen iterations
+/// from the coarse-to-fine start.
+const PATIENCE: usize = 60;
 /// Length-equalising sweeps after the force iteration (stopping early when nothing moves).
 const EQUALIZE_SWEEPS: usize = 30;
 /// Projection tolerance, in units of the smallest size (|phi| / |grad phi|).
@@ -270,8 +276,13 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
             report.converged = true;
             break;
         }
+        if it >= best.2 + PATIENCE {
+            report.plateau = true;
+            break;
+        }
     }
-    // A converged run keeps its last mesh; a run stopped by the cap keeps the best one seen.
+    // A converged run keeps its last mesh; a run stopped by the cap or a plateau keeps the best
+    // one seen.
     let (mut m, kept) = if report.converged { (m, report.iterations) } else { (best.1, best.2) };
     // The truss equilibrium balances forces; a few sweeps then even out the lengths themselves
     // (on the unit sphere at h = 0.1: size deviation 5.6% -> 5.3%, mean q 0.986 -> 0.990).

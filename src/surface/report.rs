@@ -115,6 +115,8 @@ pub struct SurfaceReport {
     pub iterations: usize,
     /// Whether the node movement fell below the tolerance before the cap.
     pub converged: bool,
+    /// Whether the loop stopped because the quality score had not improved for a while.
+    pub plateau: bool,
     /// The iteration whose mesh was kept (the best by quality).
     pub kept_iteration: usize,
     /// Operation counts.
@@ -145,7 +147,13 @@ impl fmt::Display for SurfaceReport {
             f,
             "iterations {} ({}), kept {}; remesh passes {}, equalising sweeps {}; splits {}, collapses {}, flips {}, undone moves {}",
             self.iterations,
-            if self.converged { "converged" } else { "cap reached" },
+            if self.converged {
+                "converged"
+            } else if self.plateau {
+                "quality plateau"
+            } else {
+                "cap reached"
+            },
             self.kept_iteration,
             self.remesh_passes,
             self.equalize_sweeps,
