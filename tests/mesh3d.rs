@@ -106,7 +106,6 @@ fn cylinder_minus_ball_graded() {
 }
 
 #[test]
-#[ignore = "measured: mean radius ratio 0.874 (target 0.88)"]
 fn cylinder_minus_ball_mean_quality() {
     let (d, o, v) = cyl_minus_ball();
     let r = measure("cylinder minus ball, h = min(4|x| - 1, 2), h0 = 0.1", &d, &o, v);

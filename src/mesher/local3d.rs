@@ -66,6 +66,16 @@ const CAP_COLLAPSE_RR: f64 = 0.2;
 const LAPLACE_ROUNDS: usize = 3;
 /// Smoothing and perturbation may lower the star's mean radius ratio by at most this.
 const RR_SLACK: f64 = 0.01;
+/// Rounds of the final mean-quality pass (swaps and smoothing aimed at the mean radius ratio).
+const RR_ROUNDS: usize = 4;
+/// The mean-quality pass keeps every local worst dihedral quality at least min(old, this).
+const RR_TQ_FLOOR: f64 = 0.6;
+/// Least gain in summed radius ratio for a mean-quality swap.
+const RR_GAIN: f64 = 1e-4;
+/// Gradient steps per vertex in the mean-quality smoothing.
+const RR_SMOOTH_STEPS: usize = 10;
+/// Whether boundary vertices take part in the mean-quality smoothing.
+const RR_SMOOTH_BOUNDARY: bool = true;
 /// Dihedral angle of the regular tetrahedron, degrees.
 const REGULAR_DIHEDRAL: f64 = 70.528_779_365_509_3;
 /// Chunk size of the deterministic parallel loops.
@@ -349,6 +359,19 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
             );
         }
         if moved == 0 {
+            break;
+        }
+    }
+    for round in 0..RR_ROUNDS {
+        let changed = mean_quality_round(&mut ctx, &mut mesh)?;
+        if ctx.trace {
+            let q = QualityStats3::of(&mesh);
+            eprintln!(
+                "mean quality {round}: {changed} changes, dihedral {:.2} .. {:.2}, rr mean {:.4}",
+                q.dihedral_min, q.dihedral_max, q.rr_mean
+            );
+        }
+        if changed == 0 {
             break;
         }
     }
@@ -1586,6 +1609,225 @@ fn perturb_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, 
         }
     }
     if best.0 > f0 + 1e-9 && star_rr(&star, best.1) > star_rr(&star, x0) - RR_SLACK && m.relocate(v, best.1).is_ok() {
+        ctx.report.smoothings += 1;
+        return Ok(true);
+    }
+    Ok(false)
+}
+
+// ============================ mean quality ============================
+
+/// One round of the final mean-quality pass (Klingner and Shewchuk 2007 aim their swaps and
+/// smoothing at the mean as well as the worst): interior edge removals and 2-3 flips that raise
+/// the mesh's mean radius ratio, then each free vertex moved uphill on its star's summed radius
+/// ratio. Every change keeps the local worst dihedral quality at least min(its old value,
+/// RR_TQ_FLOOR). Returns how many changes were accepted.
+fn mean_quality_round(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
+    let mut changes = 0;
+    // The swaps: a change replacing old tets by new ones raises the mean when
+    // new_sum - old_sum > mean (new_count - old_count).
+    let q = QualityStats3::of(m);
+    let mean = q.rr_mean;
+    let edges = m.edges();
+    for (a, b) in edges {
+        if !m.contains_vertex(a) || !m.contains_vertex(b) {
+            continue;
+        }
+        let Some(s) = m.edge_shell_of(a, b) else { continue };
+        if let Some(plan) = mean_ring_patch(m, &s, mean) {
+            m.apply_patch(plan);
+            ctx.report.flips += 1;
+            changes += 1;
+        }
+    }
+    let tets: Vec<TetId> = m.tet_ids().collect();
+    for t in tets {
+        for f in 0..4 {
+            if !m.contains_tet(t) {
+                break;
+            }
+            let tx = *m.tet(t);
+            let Some((u, j)) = tx.adj[f] else { continue };
+            if u < t || m.tet(u).label != tx.label {
+                continue;
+            }
+            let d = m.pos(tx.v[f]);
+            let e = m.pos(m.tet(u).v[j as usize]);
+            let [p, q, r] = m.face_vertices(t, f).map(|v| m.pos(v));
+            let new = [[p, q, d, e], [q, r, d, e], [r, p, d, e]];
+            if new.iter().any(|x| orient3d(x[0], x[1], x[2], x[3]) != Sign::Positive) {
+                continue;
+            }
+            let (pt, pu) = (m.tet_points(t), m.tet_points(u));
+            let old_min = tq(pt).min(tq(pu));
+            let new_min = new.iter().map(|&x| tq(x)).fold(f64::INFINITY, f64::min);
+            if new_min < old_min.min(RR_TQ_FLOOR) {
+                continue;
+            }
+            let rr = crate::quality::tet_radius_ratio;
+            let gain = new.iter().map(|&x| rr(x)).sum::<f64>() - rr(pt) - rr(pu) - mean;
+            if gain > RR_GAIN {
+                if let Ok(plan) = m.check_flip23(t, f) {
+                    m.apply_patch(plan);
+                    ctx.report.flips += 1;
+                    changes += 1;
+                    break;
+                }
+            }
+        }
+    }
+    // The smoothing.
+    let vs: Vec<TVertexId> = m.vertex_ids().collect();
+    for v in vs {
+        if mean_smooth_vertex(ctx, m, v)? {
+            changes += 1;
+        }
+    }
+    Ok(changes)
+}
+
+/// The removal of an interior edge whose ring triangulation (dynamic programming on the summed
+/// radius ratio, every tet above the dihedral floor) raises the mean radius ratio.
+#[allow(clippy::needless_range_loop)]
+fn mean_ring_patch(m: &TetMesh, s: &crate::topology::EdgeShell, mean: f64) -> Option<TetPatch> {
+    let n = s.ring.len();
+    if !s.closed || !(3..=7).contains(&n) {
+        return None;
+    }
+    let label = m.tet(s.tets[0]).label;
+    if s.tets.iter().any(|&t| m.tet(t).label != label) {
+        return None;
+    }
+    let rr = crate::quality::tet_radius_ratio;
+    let mut old_sum = 0.0;
+    let mut old_min = f64::INFINITY;
+    for &t in &s.tets {
+        let p = m.tet_points(t);
+        old_sum += rr(p);
+        old_min = old_min.min(tq(p));
+    }
+    let floor = old_min.min(RR_TQ_FLOOR);
+    let (pa, pb) = (m.pos(s.a), m.pos(s.b));
+    let pc: SmallVec<[DVec3; 12]> = s.ring.iter().map(|&c| m.pos(c)).collect();
+    let tri = |i: usize, j: usize, k: usize| -> f64 {
+        let (ci, cj, ck) = (pc[i], pc[j], pc[k]);
+        if orient3d(pa, ci, cj, ck) != Sign::Positive || orient3d(ci, cj, ck, pb) != Sign::Positive {
+            return f64::NEG_INFINITY;
+        }
+        let (x, y) = ([pa, ci, cj, ck], [ci, cj, ck, pb]);
+        if tq(x).min(tq(y)) < floor {
+            return f64::NEG_INFINITY;
+        }
+        rr(x) + rr(y)
+    };
+    let mut best = [[0.0f64; 12]; 12];
+    let mut choice = [[0usize; 12]; 12];
+    for len in 2..n {
+        for i in 0..n - len {
+            let j = i + len;
+            let mut b = f64::NEG_INFINITY;
+            for k in i + 1..j {
+                let v = tri(i, k, j) + best[i][k] + best[k][j];
+                if v > b {
+                    b = v;
+                    choice[i][j] = k;
+                }
+            }
+            best[i][j] = b;
+        }
+    }
+    let new_sum = best[0][n - 1];
+    if !new_sum.is_finite() {
+        return None;
+    }
+    let gain = new_sum - old_sum - mean * (2.0 * n as f64 - 4.0 - n as f64);
+    if gain <= RR_GAIN {
+        return None;
+    }
+    let (new, diagonals) = crate::topology::tet_ops::ring_tets(s.a, s.b, &s.ring, &choice, label);
+    for &(i, j) in &diagonals {
+        if (j + 1) % n != i && (i + 1) % n != j && m.find_edge(s.ring[i], s.ring[j]).is_some() {
+            return None;
+        }
+    }
+    if n == 3 && m.has_face(s.ring[0], s.ring[1], s.ring[2]) {
+        return None;
+    }
+    Some(TetPatch::raw(s.tets.iter().copied().collect(), new, None))
+}
+
+/// Moves `v` uphill on the summed radius ratio of its star (finite-difference gradient,
+/// halving line search), keeping the star's worst tq at least min(old, RR_TQ_FLOOR); boundary
+/// vertices move in the tangent plane and are projected back onto d = 0.
+fn mean_smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, Error> {
+    if !m.contains_vertex(v) || m.tag(v) == VertexTag::Fixed {
+        return Ok(false);
+    }
+    let boundary = m.tag(v) == VertexTag::Boundary;
+    if boundary && !RR_SMOOTH_BOUNDARY {
+        return Ok(false);
+    }
+    let star = star_of(m, v);
+    let x0 = m.pos(v);
+    let nb = m.vertex_neighbours(v);
+    let len = nb.iter().map(|&w| m.pos(w).distance(x0)).sum::<f64>() / nb.len().max(1) as f64;
+    let sum_at = |x: DVec3| -> f64 {
+        star.iter()
+            .map(|(p, k)| {
+                let mut p = *p;
+                p[*k] = x;
+                crate::quality::tet_radius_ratio(p)
+            })
+            .sum()
+    };
+    let (t0, _) = star_min(&star, x0);
+    let floor = t0.min(RR_TQ_FLOOR);
+    let f0 = sum_at(x0);
+    let (mut x, mut fx) = (x0, f0);
+    let mut step = 0.05 * len;
+    for _ in 0..RR_SMOOTH_STEPS {
+        let eps = 1e-6 * len;
+        let mut g = DVec3::ZERO;
+        for axis in 0..3 {
+            let mut e = DVec3::ZERO;
+            e[axis] = eps;
+            g[axis] = (sum_at(x + e) - sum_at(x - e)) / (2.0 * eps);
+        }
+        if boundary {
+            let nrm = ctx.domain.gradient(x).normalize_or_zero();
+            g -= nrm * g.dot(nrm);
+        }
+        if g.length() <= 0.0 || !g.is_finite() {
+            break;
+        }
+        let dir = g.normalize();
+        let mut accepted = false;
+        for _ in 0..6 {
+            let mut y = x + dir * step;
+            if boundary {
+                match ctx.project(y)? {
+                    Some(q) => y = q,
+                    None => {
+                        step *= 0.5;
+                        continue;
+                    }
+                }
+            }
+            let fy = sum_at(y);
+            if fy > fx + 1e-9 && star_min(&star, y).0 >= floor {
+                x = y;
+                fx = fy;
+                accepted = true;
+                step *= 1.5;
+                break;
+            }
+            step *= 0.5;
+        }
+        if !accepted {
+            break;
+        }
+    }
+    if fx > f0 + 1e-7 && m.relocate(v, x).is_ok() {
         ctx.report.smoothings += 1;
         return Ok(true);
     }
