@@ -69,13 +69,15 @@ const RR_SLACK: f64 = 0.01;
 /// Rounds of the final mean-quality pass (swaps and smoothing aimed at the mean radius ratio).
 const RR_ROUNDS: usize = 4;
 /// The mean-quality pass keeps every local worst dihedral quality at least min(old, this).
-const RR_TQ_FLOOR: f64 = 0.6;
+const RR_TQ_FLOOR: f64 = 0.55;
 /// Least gain in summed radius ratio for a mean-quality swap.
 const RR_GAIN: f64 = 1e-4;
 /// Gradient steps per vertex in the mean-quality smoothing.
 const RR_SMOOTH_STEPS: usize = 10;
 /// Whether boundary vertices take part in the mean-quality smoothing.
 const RR_SMOOTH_BOUNDARY: bool = true;
+/// Boundary faces turning more than this (degrees) from the surface normal mark a sharp edge.
+const RR_SHARP: f64 = 30.0;
 /// Dihedral angle of the regular tetrahedron, degrees.
 const REGULAR_DIHEDRAL: f64 = 70.528_779_365_509_3;
 /// Chunk size of the deterministic parallel loops.
@@ -1756,6 +1758,28 @@ fn mean_ring_patch(m: &TetMesh, s: &crate::topology::EdgeShell, mean: f64) -> Op
     Some(TetPatch::raw(s.tets.iter().copied().collect(), new, None))
 }
 
+/// Whether a boundary face around `v` turns more than RR_SHARP degrees from the surface
+/// normal at `v`: a node on a sharp edge or corner of the domain, whose tangential moves would
+/// round it off.
+fn on_sharp_feature(ctx: &Ctx, m: &TetMesh, v: TVertexId) -> bool {
+    let nrm = ctx.domain.gradient(m.pos(v)).normalize_or_zero();
+    let cos = RR_SHARP.to_radians().cos();
+    for t in m.vertex_tets(v) {
+        let tx = m.tet(t);
+        for f in 0..4 {
+            if tx.adj[f].is_some() || tx.v[f] == v {
+                continue;
+            }
+            let [a, b, c] = m.face_vertices(t, f).map(|w| m.pos(w));
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            if n.dot(nrm).abs() < cos {
+                return true;
+            }
+        }
+    }
+    false
+}
+
 /// Moves `v` uphill on the summed radius ratio of its star (finite-difference gradient,
 /// halving line search), keeping the star's worst tq at least min(old, RR_TQ_FLOOR); boundary
 /// vertices move in the tangent plane and are projected back onto d = 0.
@@ -1765,6 +1789,9 @@ fn mean_smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bo
     }
     let boundary = m.tag(v) == VertexTag::Boundary;
     if boundary && !RR_SMOOTH_BOUNDARY {
+        return Ok(false);
+    }
+    if boundary && on_sharp_feature(ctx, m, v) {
         return Ok(false);
     }
     let star = star_of(m, v);
