@@ -14,6 +14,9 @@
 //!    optimisation-based smoothing of their vertices (maximise the worst quality in the star,
 //!    Freitag and Ollivier-Gooch 1997), then by small random perturbations (Tournois et al.
 //!    2009), each accepted only when the local worst quality improves.
+//! 4. Mean quality: smart Laplacian smoothing, then interior edge removals and 2-3 flips that
+//!    raise the mean radius ratio and vertices moved uphill on their star's summed radius ratio,
+//!    each keeping the local worst dihedral quality at least min(old, RR_TQ_FLOOR).
 //!
 //! Set `TRUSSMESH_TRACE=1` to print the state every ten iterations.
 
