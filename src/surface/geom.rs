@@ -14,6 +14,12 @@ const PROJECT_STEPS: usize = 60;
 /// quadratically) until |phi| / |grad phi| <= `tol`. Returns the last point if the cap is
 /// reached; the caller measures the residual.
 pub fn project(phi: &dyn Implicit3, p: DVec3, tol: f64) -> Result<DVec3, Error> {
+    project_grad(phi, p, tol).map(|(x, _)| x)
+}
+
+/// [`project`], also returning grad phi at the returned point (the last step computed it), so
+/// that the fold test after a move needs no evaluation of its own.
+pub fn project_grad(phi: &dyn Implicit3, p: DVec3, tol: f64) -> Result<(DVec3, DVec3), Error> {
     let mut x = p;
     for _ in 0..PROJECT_STEPS {
         let (v, g) = phi.value_and_gradient(x);
@@ -28,11 +34,11 @@ pub fn project(phi: &dyn Implicit3, p: DVec3, tol: f64) -> Result<DVec3, Error> 
             return Err(Error::Invalid(format!("grad phi vanishes at {x}: no direction to project onto phi = 0")));
         }
         if v.abs() <= tol * g2.sqrt() {
-            return Ok(x);
+            return Ok((x, g));
         }
         x -= (v / g2) * g;
     }
-    Ok(x)
+    Ok((x, phi.gradient(x)))
 }
 
 /// |phi| / |grad phi| at `p`: the first-order distance to the surface.

@@ -10,6 +10,7 @@
 use crate::geometry::Implicit3;
 use crate::Error;
 use glam::DVec3;
+use rayon::prelude::*;
 use std::collections::HashMap;
 
 /// The six tetrahedra of a cube (corner bits: 1 = x, 2 = y, 4 = z) around the diagonal 0-7.
@@ -31,6 +32,12 @@ pub struct Marched {
     pub triangles: Vec<[usize; 3]>,
 }
 
+/// Number of grid nodes [`march`] samples for `bbox` at spacing `h`.
+pub fn grid_nodes(bbox: [DVec3; 2], h: f64) -> u64 {
+    let span = bbox[1] - bbox[0] + DVec3::splat(2.0 * h);
+    (0..3).map(|i| (span[i] / h).ceil() as u64 + 1).product()
+}
+
 /// Samples `phi` at spacing `h` on a grid covering `bbox` padded by one cell on every side and
 /// triangulates its zero set. Errors: non-finite phi, no zero in the box, a zero set that
 /// reaches the box (the surface must be closed inside it), too many grid nodes.
@@ -44,21 +51,25 @@ pub fn march(phi: &dyn Implicit3, bbox: [DVec3; 2], h: f64) -> Result<Marched, E
     }
     let idx = |i: usize, j: usize, k: usize| i + n[0] * (j + n[1] * k);
     let at = |i: usize, j: usize, k: usize| lo + h * DVec3::new(i as f64, j as f64, k as f64);
+    // Sampled in parallel by z-slabs (each value is independent; the order of the vector is
+    // fixed, so the result does not depend on the thread count).
+    let slab = n[0] * n[1];
     let mut f = vec![0.0; total as usize];
-    let (mut neg, mut pos) = (false, false);
-    for k in 0..n[2] {
+    f.par_chunks_mut(slab).enumerate().for_each(|(k, out)| {
         for j in 0..n[1] {
             for i in 0..n[0] {
-                let p = at(i, j, k);
-                let v = phi.value(p);
-                if !v.is_finite() {
-                    return Err(Error::NonFinite { what: "phi", value: v, at: p.to_array() });
-                }
-                neg |= v < 0.0;
-                pos |= v >= 0.0;
-                f[idx(i, j, k)] = v;
+                out[i + n[0] * j] = phi.value(at(i, j, k));
             }
         }
+    });
+    let (mut neg, mut pos) = (false, false);
+    for (m, &v) in f.iter().enumerate() {
+        if !v.is_finite() {
+            let p = at(m % n[0], (m / n[0]) % n[1], m / slab);
+            return Err(Error::NonFinite { what: "phi", value: v, at: p.to_array() });
+        }
+        neg |= v < 0.0;
+        pos |= v >= 0.0;
     }
     if !(neg && pos) {
         let sign = if neg { "negative" } else { "positive" };

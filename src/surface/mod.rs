@@ -28,11 +28,12 @@ pub use report::{SurfaceQuality, SurfaceReport};
 
 use crate::geometry::Implicit3;
 use crate::size::{auto_size_3d, SizeParams};
-use crate::topology::{TriMesh, VertexId};
+use crate::topology::{FaceId, TriMesh, VertexId};
 use crate::Error;
 use geom::{normal, project};
 use glam::DVec3;
 use ops::{collapse_short, flip_pass, smooth_tangential, split_long, FlipGoal, OpCounts};
+use rayon::prelude::*;
 use slotmap::SecondaryMap;
 
 /// How the target edge length varies.
@@ -147,6 +148,8 @@ pub struct SurfaceOutput {
 const REMESH_PASSES: usize = 12;
 /// Coarsest start level: the start mesh is made at up to 2^MAX_LEVELS times the target size.
 const MAX_LEVELS: u32 = 3;
+/// The largest marching grid for the reference topology (about 250^3 nodes).
+const REFERENCE_GRID_NODES: u64 = 16_000_000;
 /// Largest turn of the normal along one edge of the coarsest start mesh, radians.
 const MAX_TURN: f64 = 0.8;
 /// Split above 4/3 h, collapse below 4/5 h (the remeshing hysteresis of Botsch and Kobbelt).
@@ -157,14 +160,22 @@ const DENSITY_HI: f64 = 1.6;
 const DENSITY_LO: f64 = 0.5;
 /// Density control runs every this many force iterations, and not in the last stretch.
 const DENSITY_EVERY: usize = 20;
-/// The force loop stops when its quality score has not beaten the best for this many
-/// iterations. On large meshes the largest node move never falls below the tolerance (the
-/// slowest modes of a forward-Euler truss relax in a time that grows with the square of the
-/// mesh diameter in edges), while the quality stops changing after a few dozen iterations
-/// from the coarse-to-fine start.
+/// The force loop stops when its quality score has not beaten the best for PATIENCE
+/// iterations. On the finest level of a subdivided start it stops sooner: when the score has
+/// not risen by SCORE_STEP for FINE_PATIENCE iterations. On large meshes the largest node move
+/// never falls below the tolerance (the slowest modes of a forward-Euler truss relax in a time
+/// that grows with the square of the mesh diameter in edges), and after subdividing a relaxed
+/// coarse mesh only local relaxation is left.
 const PATIENCE: usize = 60;
+const FINE_PATIENCE: usize = 5;
+const SCORE_STEP: f64 = 1e-3;
+/// Flip sweeps in the force loop wait until a node may have moved this far (times h) since
+/// the last one (the seed's ttol).
+const TTOL: f64 = 0.1;
+/// Triangles below this quality have their edges tried for flips after every force step.
+const WATCH_Q: f64 = 0.8;
 /// Length-equalising sweeps after the force iteration (stopping early when nothing moves).
-const EQUALIZE_SWEEPS: usize = 30;
+const EQUALIZE_SWEEPS: usize = 10;
 /// Projection tolerance, in units of the smallest size (|phi| / |grad phi|).
 const PROJECT_TOL: f64 = 1e-9;
 
@@ -191,10 +202,19 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
     };
     let hmin = size.min();
     let tol = PROJECT_TOL * hmin;
-    // The finest marching fixes the topology; the start mesh is made at the coarsest level
+    // The reference marching fixes the topology; the start mesh is made at the coarsest level
     // 2^k h with the same Euler characteristic and component count, then subdivided k times,
-    // so that the fine mesh has only the coarse mesh's irregular vertices.
-    let fine = march::march(phi, opts.bbox, hmin)?;
+    // so that the fine mesh has only the coarse mesh's irregular vertices. The reference is the
+    // finest level whose grid stays below REFERENCE_GRID_NODES: marching costs the volume of
+    // the box over h^3 while the mesh costs its area over h^2, so at h itself a large mesh
+    // would spend most of its time (and memory) on the grid.
+    let mut reference = 0;
+    while reference < MAX_LEVELS
+        && march::grid_nodes(opts.bbox, hmin * (1u32 << reference) as f64) > REFERENCE_GRID_NODES
+    {
+        reference += 1;
+    }
+    let fine = march::march(phi, opts.bbox, hmin * (1u32 << reference) as f64)?;
     let signature = |mc: &march::Marched| {
         let mut edges: Vec<(usize, usize)> = mc
             .triangles
@@ -208,13 +228,15 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
     };
     let want = signature(&fine);
     // The coarse level must still follow the surface: at most MAX_TURN radians per edge.
-    let mut kmax = 0.0f64;
-    for &p in &fine.points {
-        kmax = kmax.max(geom::max_curvature(phi, project(phi, p, tol)?).abs());
-    }
-    let mut levels = 0;
+    let curvatures: Vec<f64> = fine
+        .points
+        .par_iter()
+        .map(|&p| Ok(geom::max_curvature(phi, project(phi, p, tol)?).abs()))
+        .collect::<Result<_, Error>>()?;
+    let kmax = curvatures.iter().fold(0.0f64, |a, &b| a.max(b));
+    let mut levels = reference;
     let mut marched = fine;
-    for k in (1..=MAX_LEVELS).rev() {
+    for k in (reference + 1..=MAX_LEVELS).rev() {
         let hk = hmin * (1u32 << k) as f64;
         if hk * kmax > MAX_TURN {
             continue;
@@ -236,54 +258,51 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
         let p = project(phi, m.pos(v), tol)?;
         ops::move_if_no_fold(&mut m, phi, v, p);
     }
+    report.stage_seconds[0] = start.elapsed().as_secs_f64();
+    let mut clock = report.stage_seconds[0];
+    let mut lap = |report: &mut SurfaceReport, k: usize| {
+        let now = start.elapsed().as_secs_f64();
+        report.stage_seconds[k] += now - clock;
+        clock = now;
+    };
     let mut counts = OpCounts::default();
+    let mut kept = 0;
     for level in (0..=levels).rev() {
         let level_size = size.scaled((1u32 << level) as f64);
-        for _ in 0..REMESH_PASSES {
+        // The coarsest level gets the remeshing passes and a force loop run to its plateau; each
+        // finer level, made by subdivision, inherits its quality: remeshing passes on the levels
+        // above the finest, and a short loop on each to relax what the projected midpoints
+        // disturbed. On the finest level passes and long loops would cost the most and add
+        // little (measured on the unit sphere, see docs/surface.md).
+        let coarsest = level == levels;
+        let passes = if level > 0 || coarsest { REMESH_PASSES } else { 0 };
+        for _ in 0..passes {
             counts.splits += split_long(&mut m, phi, &level_size, REMESH_HI, tol)?;
             counts.collapses += collapse_short(&mut m, phi, &level_size, REMESH_LO, REMESH_HI, 0.0, tol)?;
             counts.flips += flip_pass(&mut m, phi, FlipGoal::Valence, 3);
             smooth_tangential(&mut m, phi, 0.5, tol)?;
             report.remesh_passes += 1;
         }
+        counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
+        lap(&mut report, 1);
+        let patience = if coarsest { (PATIENCE, 0.0) } else { (FINE_PATIENCE, SCORE_STEP) };
+        let run = force_loop(m, phi, &level_size, opts, tol, patience, &mut counts)?;
+        m = run.mesh;
+        report.undone_moves += run.undone;
+        if level == 0 {
+            report.iterations = run.iterations;
+            report.converged = run.converged;
+            report.plateau = run.plateau;
+            kept = run.kept;
+        } else {
+            report.coarse_iterations += run.iterations;
+        }
+        lap(&mut report, 2);
         if level > 0 {
             counts.splits += ops::subdivide(&mut m, phi, tol)?;
             m = ops::relayout(&m)?;
         }
     }
-    counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
-
-    let mut best = (score(&m, &size), m.clone(), 0usize);
-    for it in 1..=opts.max_iterations {
-        report.iterations = it;
-        let moved = force_step(&mut m, phi, &size, opts, tol, &mut report.undone_moves)?;
-        counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 5);
-        let late = it + 3 * DENSITY_EVERY > opts.max_iterations;
-        if it % DENSITY_EVERY == 0 && !late {
-            let s = split_long(&mut m, phi, &size, DENSITY_HI, tol)?;
-            let c = collapse_short(&mut m, phi, &size, DENSITY_LO, DENSITY_HI, 0.3, tol)?;
-            counts.splits += s;
-            counts.collapses += c;
-            if s + c > 0 {
-                counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
-            }
-        }
-        let sc = score(&m, &size);
-        if sc > best.0 {
-            best = (sc, m.clone(), it);
-        }
-        if moved < opts.dptol && it > DENSITY_EVERY {
-            report.converged = true;
-            break;
-        }
-        if it >= best.2 + PATIENCE {
-            report.plateau = true;
-            break;
-        }
-    }
-    // A converged run keeps its last mesh; a run stopped by the cap or a plateau keeps the best
-    // one seen.
-    let (mut m, kept) = if report.converged { (m, report.iterations) } else { (best.1, best.2) };
     // The truss equilibrium balances forces; a few sweeps then even out the lengths themselves
     // (on the unit sphere at h = 0.1: size deviation 5.6% -> 5.3%, mean q 0.986 -> 0.990).
     for _ in 0..EQUALIZE_SWEEPS {
@@ -293,6 +312,7 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
             break;
         }
     }
+    lap(&mut report, 3);
     // Final projection to the tight tolerance (the loop already projects every step).
     let ids: Vec<VertexId> = m.vertex_ids().collect();
     for v in ids {
@@ -304,6 +324,95 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
     report.quality = SurfaceQuality::measure(&m, phi, &size);
     report.seconds = start.elapsed().as_secs_f64();
     Ok(SurfaceOutput { mesh: m, size, report })
+}
+
+/// What a force loop did.
+struct ForceRun {
+    /// The kept mesh: the last one when converged, else the best seen.
+    mesh: TriMesh<DVec3>,
+    iterations: usize,
+    kept: usize,
+    converged: bool,
+    plateau: bool,
+    undone: usize,
+}
+
+/// The truss iteration at the sizes `size`: force steps, flips when nodes may have moved TTOL h
+/// since the last sweep (the seed's retriangulation rule, section 2.2) and on the worst
+/// triangles after every step, density control every DENSITY_EVERY steps. Stops when no node
+/// moves more than dptol h, at the cap, or when the score has not risen by `step` for
+/// `patience` iterations; keeps the best mesh seen unless converged.
+fn force_loop(
+    mut m: TriMesh<DVec3>,
+    phi: &dyn Implicit3,
+    size: &SizeField,
+    opts: &SurfaceOptions,
+    tol: f64,
+    (patience, step): (usize, f64),
+    counts: &mut OpCounts,
+) -> Result<ForceRun, Error> {
+    let mut best = (score(&m, size), m.clone(), 0usize);
+    // The last score that beat the one before it by `step`, and when.
+    let mut marked = (best.0, 0usize);
+    // Largest possible movement of any node since the last flip sweep, relative to h.
+    let mut since_flips = 0.0;
+    let mut run =
+        ForceRun { mesh: TriMesh::new(), iterations: 0, kept: 0, converged: false, plateau: false, undone: 0 };
+    for it in 1..=opts.max_iterations {
+        run.iterations = it;
+        let moved = force_step(&mut m, phi, size, opts, tol, &mut run.undone)?;
+        since_flips += moved;
+        if since_flips > TTOL {
+            counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 5);
+            since_flips = 0.0;
+        }
+        let late = it + 3 * DENSITY_EVERY > opts.max_iterations;
+        if it % DENSITY_EVERY == 0 && !late {
+            let s = split_long(&mut m, phi, size, DENSITY_HI, tol)?;
+            let c = collapse_short(&mut m, phi, size, DENSITY_LO, DENSITY_HI, 0.3, tol)?;
+            counts.splits += s;
+            counts.collapses += c;
+            if s + c > 0 {
+                counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
+                since_flips = 0.0;
+            }
+        }
+        let (sc, worst) = score_and_worst(&m, size, WATCH_Q);
+        // Between the sweeps, the edges of the worst triangles are tried after every step.
+        let mut no_valences = SecondaryMap::new();
+        for f in worst {
+            if m.contains_face(f) {
+                for h in m.face_half_edges(f) {
+                    if m.contains_half_edge(h) && ops::try_flip(&mut m, phi, h, FlipGoal::Quality, &mut no_valences) {
+                        counts.flips += 1;
+                        break;
+                    }
+                }
+            }
+        }
+        if sc > best.0 {
+            best = (sc, m.clone(), it);
+        }
+        if sc > marked.0 + step {
+            marked = (sc, it);
+        }
+        if moved < opts.dptol && it > DENSITY_EVERY {
+            run.converged = true;
+            break;
+        }
+        if it >= marked.1 + patience {
+            run.plateau = true;
+            break;
+        }
+    }
+    if run.converged {
+        run.kept = run.iterations;
+        run.mesh = m;
+    } else {
+        run.kept = best.2;
+        run.mesh = best.1;
+    }
+    Ok(run)
 }
 
 /// sum(L h) / sum(h^2): the scale that best fits the edge lengths L to the sizes h.
@@ -321,11 +430,20 @@ fn mean_ratio(m: &TriMesh<DVec3>, size: &SizeField) -> f64 {
 /// The figure that picks the kept mesh: mean plus worst quality, minus the size deviation
 /// (std / mean of edge length over h).
 fn score(m: &TriMesh<DVec3>, size: &SizeField) -> f64 {
+    score_and_worst(m, size, 0.0).0
+}
+
+/// [`score`], and the faces of quality below `watch`.
+fn score_and_worst(m: &TriMesh<DVec3>, size: &SizeField, watch: f64) -> (f64, Vec<FaceId>) {
     let (mut min_q, mut sum) = (1.0f64, 0.0);
+    let mut worst = Vec::new();
     for f in m.face_ids() {
         let q = m.face_quality(f);
         min_q = min_q.min(q);
         sum += q;
+        if q < watch {
+            worst.push(f);
+        }
     }
     let (mut n, mut s1, mut s2) = (0.0, 0.0, 0.0);
     for e in m.edge_ids() {
@@ -337,7 +455,7 @@ fn score(m: &TriMesh<DVec3>, size: &SizeField) -> f64 {
     }
     let mean = s1 / n;
     let dev = ((s2 / n - mean * mean).max(0.0)).sqrt() / mean;
-    min_q + sum / m.num_faces().max(1) as f64 - dev
+    (min_q + sum / m.num_faces().max(1) as f64 - dev, worst)
 }
 
 /// One truss step (seed eq. 2.6 forces, forward Euler in the tangent plane, projection).
@@ -381,13 +499,21 @@ fn force_step(
         force[a as usize] += f;
         force[b as usize] -= f;
     }
+    // Normals and projections depend on the positions before the step only: in parallel.
+    let moves: Vec<(DVec3, DVec3)> = pos
+        .par_iter()
+        .zip(&force)
+        .map(|(&p, &fi)| {
+            let n = normal(phi, p);
+            let f = fi - fi.dot(n) * n;
+            geom::project_grad(phi, p + opts.dt * f, tol)
+        })
+        .collect::<Result<_, Error>>()?;
     let mut moved = 0.0f64;
     for (i, &v) in ids.iter().enumerate() {
         let p = pos[i];
-        let n = normal(phi, p);
-        let f = force[i] - force[i].dot(n) * n;
-        let q = project(phi, p + opts.dt * f, tol)?;
-        if ops::move_if_no_fold(m, phi, v, q) {
+        let (q, g) = moves[i];
+        if ops::move_if_no_fold_g(m, v, q, g) {
             moved = moved.max(q.distance(p) / size.at(p));
         } else {
             *undone += 1;

@@ -1,12 +1,13 @@
 //! Local operations in space: the engine's checked flip, split and collapse plus the surface
 //! conditions the engine cannot know (no fold against grad phi, quality, valence).
 
-use super::geom::{faces_out, project, SizeField};
+use super::geom::{faces_out, project, project_grad, SizeField};
 use crate::geometry::Implicit3;
 use crate::quality::triangle_q3;
 use crate::topology::{HalfEdgeId, TriMesh, VertexId};
 use crate::Error;
 use glam::DVec3;
+use rayon::prelude::*;
 use slotmap::SecondaryMap;
 
 /// The smallest cosine between a new triangle's normal and grad phi at its centroid that a
@@ -240,21 +241,23 @@ pub fn collapse_short(
 /// Moves every vertex toward the average of its neighbours by `lambda`, in the tangent plane
 /// only, then projects it; a move that would fold a triangle is skipped.
 pub fn smooth_tangential(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, lambda: f64, tol: f64) -> Result<(), Error> {
+    // Targets and their projections depend on the positions before the pass only: computed in
+    // parallel, then applied in arena order.
     let ids: Vec<VertexId> = m.vertex_ids().collect();
-    let targets: Vec<DVec3> = ids
-        .iter()
+    let mesh = &*m;
+    let moves: Vec<(DVec3, DVec3)> = ids
+        .par_iter()
         .map(|&v| {
-            let p = m.pos(v);
-            let nb = m.neighbours(v);
-            let c = nb.iter().map(|&w| m.pos(w)).sum::<DVec3>() / nb.len().max(1) as f64;
+            let p = mesh.pos(v);
+            let nb = mesh.neighbours(v);
+            let c = nb.iter().map(|&w| mesh.pos(w)).sum::<DVec3>() / nb.len().max(1) as f64;
             let n = super::geom::normal(phi, p);
             let d = c - p;
-            p + lambda * (d - d.dot(n) * n)
+            project_grad(phi, p + lambda * (d - d.dot(n) * n), tol)
         })
-        .collect();
-    for (&v, &t) in ids.iter().zip(&targets) {
-        let p = project(phi, t, tol)?;
-        move_if_no_fold(m, phi, v, p);
+        .collect::<Result<_, Error>>()?;
+    for (&v, &(p, g)) in ids.iter().zip(&moves) {
+        move_if_no_fold_g(m, v, p, g);
     }
     Ok(())
 }
@@ -264,7 +267,11 @@ pub fn smooth_tangential(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, lambda: f6
 /// star: its triangles are within an edge length of p, where grad phi turns by a few degrees at
 /// most on any surface the mesh resolves, far inside the 90 degrees this test allows.
 pub fn move_if_no_fold(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, v: VertexId, p: DVec3) -> bool {
-    let g = phi.gradient(p);
+    move_if_no_fold_g(m, v, p, phi.gradient(p))
+}
+
+/// [`move_if_no_fold`] with grad phi at `p` already known.
+pub fn move_if_no_fold_g(m: &mut TriMesh<DVec3>, v: VertexId, p: DVec3, g: DVec3) -> bool {
     if !(g.length_squared() > 0.0) {
         return false;
     }
@@ -381,10 +388,13 @@ pub fn equalize_lengths(
 ) -> Result<f64, Error> {
     use glam::DMat3;
     let ids: Vec<VertexId> = m.vertex_ids().collect();
+    // A vertex has not moved yet when its turn comes (only its neighbours have), so the
+    // normals at the sweep's start are the ones it needs: computed in parallel.
+    let mesh = &*m;
+    let normals: Vec<DVec3> = ids.par_iter().map(|&v| super::geom::normal(phi, mesh.pos(v))).collect();
     let mut largest = 0.0f64;
-    for v in ids {
+    for (&v, &n) in ids.iter().zip(&normals) {
         let p = m.pos(v);
-        let n = super::geom::normal(phi, p);
         let mut a = DMat3::from_cols(n * n.x, n * n.y, n * n.z);
         let mut rhs = DVec3::ZERO;
         for w in m.neighbours(v) {
@@ -408,8 +418,8 @@ pub fn equalize_lengths(
         if step.length() > 0.2 * h {
             step *= 0.2 * h / step.length();
         }
-        let target = project(phi, p + step, tol)?;
-        if move_if_no_fold(m, phi, v, target) {
+        let (target, g) = project_grad(phi, p + step, tol)?;
+        if move_if_no_fold_g(m, v, target, g) {
             largest = largest.max(target.distance(p) / h);
         }
     }

@@ -111,8 +111,10 @@ impl SurfaceQuality {
 pub struct SurfaceReport {
     /// Remeshing passes that made the start mesh (split, collapse, flip, smooth).
     pub remesh_passes: usize,
-    /// Force iterations.
+    /// Force iterations on the finest level.
     pub iterations: usize,
+    /// Force iterations on the coarser levels, before their subdivisions (0 without).
+    pub coarse_iterations: usize,
     /// Whether the node movement fell below the tolerance before the cap.
     pub converged: bool,
     /// Whether the loop stopped because the quality score had not improved for a while.
@@ -129,6 +131,9 @@ pub struct SurfaceReport {
     pub quality: SurfaceQuality,
     /// Wall time, seconds.
     pub seconds: f64,
+    /// Wall time of each stage, seconds: the start (marching and curvature), the remeshing
+    /// levels with their subdivisions, the force loop, the length equalisation.
+    pub stage_seconds: [f64; 4],
 }
 
 impl fmt::Display for SurfaceReport {
@@ -145,7 +150,7 @@ impl fmt::Display for SurfaceReport {
         )?;
         writeln!(
             f,
-            "iterations {} ({}), kept {}; remesh passes {}, equalising sweeps {}; splits {}, collapses {}, flips {}, undone moves {}",
+            "iterations {} ({}), kept {}, on coarser levels {}; remesh passes {}, equalising sweeps {}; splits {}, collapses {}, flips {}, undone moves {}",
             self.iterations,
             if self.converged {
                 "converged"
@@ -155,6 +160,7 @@ impl fmt::Display for SurfaceReport {
                 "cap reached"
             },
             self.kept_iteration,
+            self.coarse_iterations,
             self.remesh_passes,
             self.equalize_sweeps,
             self.ops.splits,
@@ -175,8 +181,15 @@ impl fmt::Display for SurfaceReport {
         )?;
         write!(
             f,
-            "vertex residual {:.1e} h, centroid deviation max {:.2e} h, mean {:.2e} h; {:.2} s",
-            q.vertex_residual, q.centroid_deviation_max, q.centroid_deviation_mean, self.seconds
+            "vertex residual {:.1e} h, centroid deviation max {:.2e} h, mean {:.2e} h; {:.2} s (start {:.2}, remeshing {:.2}, force loop {:.2}, equalising {:.2})",
+            q.vertex_residual,
+            q.centroid_deviation_max,
+            q.centroid_deviation_mean,
+            self.seconds,
+            self.stage_seconds[0],
+            self.stage_seconds[1],
+            self.stage_seconds[2],
+            self.stage_seconds[3]
         )
     }
 }
