@@ -151,7 +151,7 @@ const MAX_LEVELS: u32 = 3;
 /// The largest marching grid for the reference topology (about 250^3 nodes).
 const REFERENCE_GRID_NODES: u64 = 16_000_000;
 /// Largest turn of the normal along one edge of the coarsest start mesh, radians.
-const MAX_TURN: f64 = 0.8;
+const MAX_TURN: f64 = 0.4;
 /// Split above 4/3 h, collapse below 4/5 h (the remeshing hysteresis of Botsch and Kobbelt).
 const REMESH_HI: f64 = 4.0 / 3.0;
 const REMESH_LO: f64 = 0.8;
@@ -167,6 +167,9 @@ const DENSITY_EVERY: usize = 20;
 /// that grows with the square of the mesh diameter in edges), and after subdividing a relaxed
 /// coarse mesh only local relaxation is left.
 const PATIENCE: usize = 60;
+/// Without subdivision the coarsest level is the final mesh: its loop gets more patience (the
+/// score of a start from the fine marching dips before it rises).
+const PATIENCE_ALONE: usize = 250;
 const FINE_PATIENCE: usize = 5;
 const SCORE_STEP: f64 = 1e-3;
 /// Flip sweeps in the force loop wait until a node may have moved this far (times h) since
@@ -285,7 +288,11 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
         }
         counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
         lap(&mut report, 1);
-        let patience = if coarsest { (PATIENCE, 0.0) } else { (FINE_PATIENCE, SCORE_STEP) };
+        let patience = match (coarsest, levels) {
+            (true, 0) => (PATIENCE_ALONE, 0.0),
+            (true, _) => (PATIENCE, 0.0),
+            _ => (FINE_PATIENCE, SCORE_STEP),
+        };
         let run = force_loop(m, phi, &level_size, opts, tol, patience, &mut counts)?;
         m = run.mesh;
         report.undone_moves += run.undone;
@@ -315,8 +322,10 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
     lap(&mut report, 3);
     // Final projection to the tight tolerance (the loop already projects every step).
     let ids: Vec<VertexId> = m.vertex_ids().collect();
-    for v in ids {
-        let p = project(phi, m.pos(v), 1e-3 * tol)?;
+    let mesh = &m;
+    let finals: Vec<DVec3> =
+        ids.par_iter().map(|&v| project(phi, mesh.pos(v), 1e-3 * tol)).collect::<Result<_, Error>>()?;
+    for (&v, &p) in ids.iter().zip(&finals) {
         m.set_pos_unchecked(v, p);
     }
     report.kept_iteration = kept;
