@@ -44,7 +44,7 @@ pub struct SurfaceArgs {
     /// Largest size with --curvature (default 8 h0).
     #[arg(long, value_name = "H")]
     pub hmax: Option<f64>,
-    /// Iteration cap of the force loop.
+    /// Iteration cap of each force loop (one per level of the coarse-to-fine start).
     #[arg(long, value_name = "N")]
     pub max_iter: Option<usize>,
     /// Output file; the extension picks the format (.json .vtu .msh .mesh .obj .stl .ply, or a
