@@ -286,3 +286,21 @@ fn subdivision_adds_only_regular_vertices() {
     m.validate(Level::Topology).unwrap();
     assert_eq!(m.euler_characteristic(), 2);
 }
+
+#[test]
+fn progress_reports_every_stage_in_order() {
+    use std::sync::{Arc, Mutex};
+    let seen = Arc::new(Mutex::new(Vec::new()));
+    let log = seen.clone();
+    let opts = SurfaceOptions::uniform(0.1, bbox(1.2)).with_progress(move |d, t| log.lock().unwrap().push((d, t)));
+    let out = mesh_implicit_surface(&sphere, &opts).unwrap();
+    let seen = seen.lock().unwrap();
+    let total = seen[0].1;
+    // The start, each level of the coarse-to-fine start (two subdivisions here), the equalising.
+    assert!(total >= 3, "{seen:?}");
+    assert!(seen.iter().all(|&(_, t)| t == total), "{seen:?}");
+    assert_eq!(seen.iter().map(|&(d, _)| d).collect::<Vec<_>>(), (1..=total).collect::<Vec<_>>());
+    // The callback does not change the result.
+    let plain = mesh_implicit_surface(&sphere, &SurfaceOptions::uniform(0.1, bbox(1.2))).unwrap();
+    assert_eq!(out.mesh.to_arrays().0, plain.mesh.to_arrays().0);
+}

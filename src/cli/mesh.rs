@@ -396,20 +396,22 @@ impl Spec {
     }
 }
 
-/// A progress bar on stderr that appears once a run has taken a second.
-fn progress_bar(quiet: bool) -> Option<ProgressBar> {
+/// A progress bar on stderr that appears once a run has taken a second; `unit` names what it
+/// counts.
+pub(crate) fn progress_bar(quiet: bool, unit: &str) -> Option<ProgressBar> {
     if quiet || !std::io::stderr().is_terminal() {
         return None;
     }
     let pb = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
-    if let Ok(style) = ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} iterations") {
+    if let Ok(style) = ProgressStyle::with_template(&format!("{{elapsed_precise}} [{{bar:40}}] {{pos}}/{{len}} {unit}"))
+    {
         pb.set_style(style.progress_chars("=> "));
     }
     Some(pb)
 }
 
 /// The progress callback both meshers take: the bar appears once a run has taken a second.
-fn progress_callback(pb: ProgressBar) -> impl Fn(usize, usize) + Send + Sync + 'static {
+pub(crate) fn progress_callback(pb: ProgressBar) -> impl Fn(usize, usize) + Send + Sync + 'static {
     let start = Instant::now();
     let shown = AtomicBool::new(false);
     move |it, cap| {
@@ -489,7 +491,7 @@ impl Job {
             return mesh3(self, quiet);
         }
         let geom = ExprImplicit2 { expr: self.domain.clone(), distance: !self.implicit };
-        let pb = progress_bar(quiet);
+        let pb = progress_bar(quiet, "iterations");
         let out = mesh_2d(&geom, &self.options2(pb.clone()));
         if let Some(pb) = pb {
             pb.finish_and_clear();
@@ -521,7 +523,7 @@ fn mesh3(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
         }
     }
     let geom = ExprImplicit3 { expr: job.domain.clone(), distance: !job.implicit };
-    let pb = progress_bar(quiet);
+    let pb = progress_bar(quiet, "iterations");
     let out = mesh_3d(&geom, &job.options3(pb.clone()));
     if let Some(pb) = pb {
         pb.finish_and_clear();

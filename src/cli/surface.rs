@@ -81,7 +81,15 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
     if let Some(n) = args.max_iter {
         opts = opts.with_max_iterations(n);
     }
-    let out = mesh_implicit_surface(&phi, &opts)?;
+    let pb = super::mesh::progress_bar(args.quiet, "stages");
+    if let Some(pb) = &pb {
+        opts = opts.with_progress(super::mesh::progress_callback(pb.clone()));
+    }
+    let out = mesh_implicit_surface(&phi, &opts);
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    let out = out?;
     let data = MeshData::from_trimesh3(&out.mesh);
     for p in &args.output {
         write_output(p, &data, phi_src)?;

@@ -27,6 +27,7 @@ pub use geom::SizeField;
 pub use report::{SurfaceQuality, SurfaceReport};
 
 use crate::geometry::Implicit3;
+use crate::mesher::ProgressFn;
 use crate::size::{auto_size_3d, SizeParams};
 use crate::topology::{FaceId, TriMesh, VertexId};
 use crate::Error;
@@ -55,7 +56,7 @@ pub enum SurfaceSize {
 
 /// Options of [`mesh_implicit_surface`]. Defaults: uniform size, 1000 iterations, Fscale 1.2,
 /// time step 0.3, movement tolerance 1e-3 h.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 #[non_exhaustive]
 pub struct SurfaceOptions {
     /// Target edge length (the smallest one with curvature sizes).
@@ -72,6 +73,24 @@ pub struct SurfaceOptions {
     pub dt: f64,
     /// Stop when no node moves more than dptol h in an iteration.
     pub dptol: f64,
+    /// Progress callback, called as (stages done, stages): the start, each level of the
+    /// coarse-to-fine start (remeshing, force loop, subdivision), the length equalisation.
+    pub progress: Option<ProgressFn>,
+}
+
+impl std::fmt::Debug for SurfaceOptions {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SurfaceOptions")
+            .field("h0", &self.h0)
+            .field("bbox", &self.bbox)
+            .field("size", &self.size)
+            .field("max_iterations", &self.max_iterations)
+            .field("fscale", &self.fscale)
+            .field("dt", &self.dt)
+            .field("dptol", &self.dptol)
+            .field("progress", &self.progress.as_ref().map(|_| "fn"))
+            .finish()
+    }
 }
 
 impl SurfaceOptions {
@@ -94,11 +113,17 @@ impl SurfaceOptions {
             fscale: Self::DEFAULT_FSCALE,
             dt: Self::DEFAULT_DT,
             dptol: Self::DEFAULT_DPTOL,
+            progress: None,
         }
     }
     /// Sizes from curvature (see [`SurfaceSize::Curvature`]).
     pub fn with_curvature(mut self, k: f64, g: f64, hmax: f64) -> Self {
         self.size = SurfaceSize::Curvature { k, g, hmax };
+        self
+    }
+    /// Sets the progress callback (see [`SurfaceOptions::progress`]).
+    pub fn with_progress(mut self, f: impl Fn(usize, usize) + Send + Sync + 'static) -> Self {
+        self.progress = Some(std::sync::Arc::new(f));
         self
     }
     /// Sets the iteration cap.
@@ -261,6 +286,13 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
         let p = project(phi, m.pos(v), tol)?;
         ops::move_if_no_fold(&mut m, phi, v, p);
     }
+    let stages = levels as usize + 3;
+    let tick = |done: usize| {
+        if let Some(cb) = &opts.progress {
+            cb(done, stages);
+        }
+    };
+    tick(1);
     report.stage_seconds[0] = start.elapsed().as_secs_f64();
     let mut clock = report.stage_seconds[0];
     let mut lap = |report: &mut SurfaceReport, k: usize| {
@@ -309,6 +341,7 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
             counts.splits += ops::subdivide(&mut m, phi, tol)?;
             m = ops::relayout(&m)?;
         }
+        tick(stages - 1 - level as usize);
     }
     // The truss equilibrium balances forces; a few sweeps then even out the lengths themselves
     // (measured on the unit sphere at h = 0.1 on the build of 2026-11-25: size deviation 5.6% ->
@@ -321,6 +354,7 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
         }
     }
     lap(&mut report, 3);
+    tick(stages);
     // Final projection to the tight tolerance (the loop already projects every step).
     let ids: Vec<VertexId> = m.vertex_ids().collect();
     let mesh = &m;
