@@ -480,7 +480,7 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
     }
     let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
     let mut keep: Vec<[usize; 3]> = Vec::with_capacity(tris.len());
-    let mut keep_label: std::collections::HashMap<[usize; 3], u32> = std::collections::HashMap::new();
+    let mut keep_label: crate::FastMap<[usize; 3], u32> = crate::FastMap::default();
     for (t, &label) in tris.iter().zip(&labels) {
         // Around fixed points (often corners on d = 0) the centroid decides, so they stay.
         let touches_fixed = t.iter().any(|&i| fixed[i]);
@@ -621,46 +621,41 @@ fn restore_fixed(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
 /// island apart from the mesh, which the boundary rows would later slide over. The fixed
 /// point is then restored onto the mesh by [`restore_fixed`].
 fn drop_islands(tris: &[[usize; 3]], inside: &[bool]) -> Vec<[usize; 3]> {
-    let mut by_edge: std::collections::HashMap<(usize, usize), Vec<usize>> =
-        std::collections::HashMap::with_capacity(tris.len() * 3);
+    // Triangles sharing an edge are joined (union-find over the sorted edge list: no map of
+    // small vectors, which cost most of the carving on large starts).
+    let mut edges: Vec<(usize, usize, usize)> = Vec::with_capacity(tris.len() * 3);
     for (t, tri) in tris.iter().enumerate() {
         for k in 0..3 {
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            by_edge.entry((a.min(b), a.max(b))).or_default().push(t);
+            edges.push((a.min(b), a.max(b), t));
         }
     }
-    let mut comp = vec![usize::MAX; tris.len()];
-    let mut has_core = Vec::new();
-    for start in 0..tris.len() {
-        if comp[start] != usize::MAX {
-            continue;
-        }
-        let c = has_core.len();
-        has_core.push(false);
-        comp[start] = c;
-        let mut stack = vec![start];
-        while let Some(t) = stack.pop() {
-            let tri = tris[t];
-            if tri.iter().all(|&i| inside[i]) {
-                has_core[c] = true;
-            }
-            for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                for &u in &by_edge[&(a.min(b), a.max(b))] {
-                    if comp[u] == usize::MAX {
-                        comp[u] = c;
-                        stack.push(u);
-                    }
-                }
-            }
+    edges.sort_unstable();
+    let mut sets = crate::topology::DisjointSets::new(tris.len());
+    for w in edges.windows(2) {
+        if (w[0].0, w[0].1) == (w[1].0, w[1].1) {
+            sets.join(w[0].2, w[1].2);
         }
     }
-    tris.iter().zip(&comp).filter(|(_, &c)| has_core[c]).map(|(t, _)| *t).collect()
+    let mut core = vec![false; tris.len()];
+    for (t, tri) in tris.iter().enumerate() {
+        if tri.iter().all(|&i| inside[i]) {
+            core[sets.root(t)] = true;
+        }
+    }
+    let mut out = Vec::with_capacity(tris.len());
+    for (t, tri) in tris.iter().enumerate() {
+        if core[sets.root(t)] {
+            out.push(*tri);
+        }
+    }
+    out
 }
 
 /// Vertices with more than one boundary edge leaving them in a triangle list.
 pub(crate) fn pinched_vertices(n: usize, tris: &[[usize; 3]]) -> Vec<usize> {
-    let mut dir = std::collections::HashSet::with_capacity(tris.len() * 3);
+    let mut dir: crate::FastSet<(usize, usize)> =
+        crate::FastSet::with_capacity_and_hasher(tris.len() * 3, Default::default());
     for t in tris {
         for k in 0..3 {
             dir.insert((t[k], t[(k + 1) % 3]));

@@ -11,7 +11,6 @@ use crate::geometry::Implicit3;
 use crate::Error;
 use glam::DVec3;
 use rayon::prelude::*;
-use std::collections::HashMap;
 
 /// The six tetrahedra of a cube (corner bits: 1 = x, 2 = y, 4 = z) around the diagonal 0-7.
 const KUHN: [[usize; 4]; 6] = [[0, 1, 3, 7], [0, 1, 5, 7], [0, 2, 3, 7], [0, 2, 6, 7], [0, 4, 5, 7], [0, 4, 6, 7]];
@@ -91,7 +90,7 @@ pub fn march(phi: &dyn Implicit3, bbox: [DVec3; 2], h: f64) -> Result<Marched, E
         }
     }
     let mut points: Vec<DVec3> = Vec::new();
-    let mut key_of: HashMap<(usize, usize), usize> = HashMap::new();
+    let mut key_of: crate::FastMap<(usize, usize), usize> = crate::FastMap::default();
     let mut triangles: Vec<[usize; 3]> = Vec::new();
     for k in 0..n[2] - 1 {
         for j in 0..n[1] - 1 {

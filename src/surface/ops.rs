@@ -355,23 +355,12 @@ pub fn subdivide(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, tol: f64) -> Resul
 
 /// Number of connected components (by shared vertices) of a triangle list over `n` points.
 pub fn components(n: usize, tris: &[[usize; 3]]) -> usize {
-    let mut up: Vec<usize> = (0..n).collect();
-    fn root(up: &mut [usize], mut i: usize) -> usize {
-        while up[i] != i {
-            up[i] = up[up[i]];
-            i = up[i];
-        }
-        i
-    }
+    let mut sets = crate::topology::DisjointSets::new(n);
     for t in tris {
-        for k in 1..3 {
-            let (x, y) = (root(&mut up, t[0]), root(&mut up, t[k]));
-            if x != y {
-                up[x.max(y)] = x.min(y);
-            }
-        }
+        sets.join(t[0], t[1]);
+        sets.join(t[0], t[2]);
     }
-    (0..n).filter(|&i| root(&mut up, i) == i).count()
+    (0..n).filter(|&i| sets.root(i) == i).count()
 }
 
 /// Gauss-Seidel sweeps that move each vertex in its tangent plane to bring the lengths of its

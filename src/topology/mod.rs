@@ -10,6 +10,7 @@
 //! ...) does both. A refused operation leaves the mesh exactly as it was.
 
 mod delaunay;
+mod disjoint_sets;
 mod queue;
 mod tet_delaunay;
 mod tet_delaunay_kernel;
@@ -21,6 +22,7 @@ mod tri_validate;
 mod trimesh;
 
 pub use delaunay::hilbert_order;
+pub use disjoint_sets::DisjointSets;
 pub use queue::QualityQueue;
 pub use tet_delaunay::{hilbert_order_3d, hilbert_sort_3d};
 pub use tet_ops::{Flip23Plan, Flip32Plan, TetPatch};

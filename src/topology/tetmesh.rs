@@ -16,7 +16,6 @@ use crate::predicates::{orient3d, Sign};
 use glam::DVec3;
 use slotmap::{new_key_type, Key, SlotMap};
 use smallvec::SmallVec;
-use std::collections::HashMap;
 
 new_key_type! {
     /// A vertex of a [`TetMesh`].
@@ -480,7 +479,8 @@ impl TetMesh {
             }
             ids.push(m.vertices.insert(TVertex { pos: p, tet: TetId::null(), tag: VertexTag::Interior }));
         }
-        let mut faces: HashMap<[TVertexId; 3], (TetId, u8)> = HashMap::with_capacity(tets.len() * 2);
+        let mut faces: crate::FastMap<[TVertexId; 3], (TetId, u8)> =
+            crate::FastMap::with_capacity_and_hasher(tets.len() * 2, Default::default());
         for (ti, t) in tets.iter().enumerate() {
             let mut t = *t;
             if t.iter().any(|&i| i >= points.len()) {

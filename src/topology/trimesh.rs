@@ -17,7 +17,6 @@ use crate::predicates::{orient2d, Sign};
 use glam::{DVec2, DVec3};
 use slotmap::{new_key_type, SlotMap};
 use smallvec::SmallVec;
-use std::collections::HashMap;
 
 new_key_type! {
     /// A vertex of a [`TriMesh`].
@@ -469,7 +468,8 @@ impl<P: MeshPoint> TriMesh<P> {
             ids.push(m.vertices.insert(Vertex { pos: p, out: HalfEdgeId::default(), tag: VertexTag::Interior }));
         }
         let mut used = vec![false; points.len()];
-        let mut edge_map: HashMap<(usize, usize), HalfEdgeId> = HashMap::with_capacity(triangles.len() * 3);
+        let mut edge_map: crate::FastMap<(usize, usize), HalfEdgeId> =
+            crate::FastMap::with_capacity_and_hasher(triangles.len() * 3, Default::default());
         // Insertion order, so that the result never depends on hash iteration order.
         let mut listed: Vec<(usize, usize, HalfEdgeId)> = Vec::with_capacity(triangles.len() * 3);
         for (ti, t) in triangles.iter().enumerate() {
