@@ -183,21 +183,35 @@ impl TetMesh {
         // tets: a fresh slot map hands out keys (index i + 1, version 1) in insertion order, so
         // every key is known before its record is written (each insertion checks it).
         let mut m = TetMesh::with_capacity(k.pts.len());
-        // New index of each kept kernel tet, and a kept tet of each kernel vertex.
-        let mut newidx = vec![NONE; k.tets.len()];
+        // The kept kernel tets as a bit set with the count of kept tets before each word: the new
+        // index of a neighbour is then read from 1/32 of the memory a table of indices would take
+        // (in cache, where such a table is not). And a kept tet of each kernel vertex.
+        let mut keep = vec![0u64; k.tets.len().div_ceil(64)];
+        let mut rank = vec![0u32; keep.len()];
         let mut vtet = vec![NONE; k.pts.len()];
         let mut kept = 0u32;
         for (t, kt) in k.tets.iter().enumerate() {
+            if t & 63 == 0 {
+                rank[t >> 6] = kept;
+            }
             let w = kt.v;
             if w[0] == NONE || w[0] < 4 || w[1] < 4 || w[2] < 4 || w[3] < 4 {
                 continue;
             }
-            newidx[t] = kept;
+            keep[t >> 6] |= 1 << (t & 63);
             for x in w {
                 vtet[x as usize] = kept;
             }
             kept += 1;
         }
+        let newidx = |u: usize| -> u32 {
+            let (word, bit) = (keep[u >> 6], 1u64 << (u & 63));
+            if word & bit == 0 {
+                NONE
+            } else {
+                rank[u >> 6] + (word & (bit - 1)).count_ones()
+            }
+        };
         for (w, &pos) in k.pts.iter().enumerate().skip(4) {
             let tet = if vtet[w] == NONE { TetId::null() } else { fresh_key(vtet[w]) };
             let id = m.vertices.insert(TVertex { pos, tet, tag: VertexTag::Interior });
@@ -205,9 +219,9 @@ impl TetMesh {
         }
         // Loops written out (no `array::map`): this copies millions of tets.
         let mut hull = Vec::new();
+        let mut nt = 0u32;
         for (t, kt) in k.tets.iter().enumerate() {
-            let nt = newidx[t];
-            if nt == NONE {
+            if keep[t >> 6] & (1 << (t & 63)) == 0 {
                 continue;
             }
             let w = kt.v;
@@ -215,7 +229,7 @@ impl TetMesh {
             let me: TetId = fresh_key(nt);
             let mut adj = [None; 4];
             for (j, (a, &nb)) in adj.iter_mut().zip(kt.n.iter()).enumerate() {
-                let u = if nb == NONE { NONE } else { newidx[(nb >> 2) as usize] };
+                let u = if nb == NONE { NONE } else { newidx((nb >> 2) as usize) };
                 if u == NONE {
                     hull.push((me, j));
                 } else {
@@ -224,6 +238,7 @@ impl TetMesh {
             }
             let id = m.tets.insert(Tet { v, adj, label: 0 });
             assert!(id == me, "slot map keys out of order");
+            nt += 1;
         }
         let ids: Vec<TVertexId> = kid.iter().map(|&w| fresh_key(w - 4)).collect();
         // Vertices of enclosing tets only; the hull filling below adds tets on hull vertices alone.
