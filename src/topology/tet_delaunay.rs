@@ -56,8 +56,16 @@ pub fn hilbert_order_3d(points: &[DVec3]) -> Vec<usize> {
     }
     ends.push(0);
     ends.reverse();
+    // Sorted as (key, index) pairs side by side: a sort that looks keys up through the indices
+    // waits for a cache miss at almost every comparison.
+    let mut pairs: Vec<(u64, usize)> = Vec::with_capacity(n - n / 8);
     for w in ends.windows(2) {
-        idx[w[0]..w[1]].sort_unstable_by_key(|&i| (key[i], i));
+        pairs.clear();
+        pairs.extend(idx[w[0]..w[1]].iter().map(|&i| (key[i], i)));
+        pairs.sort_unstable();
+        for (slot, &(_, i)) in idx[w[0]..w[1]].iter_mut().zip(&pairs) {
+            *slot = i;
+        }
     }
     idx
 }
@@ -66,9 +74,9 @@ pub fn hilbert_order_3d(points: &[DVec3]) -> Vec<usize> {
 /// index): a memory order in which neighbours in space are mostly neighbours in memory.
 pub fn hilbert_sort_3d(points: &[DVec3]) -> Vec<usize> {
     let key = hilbert_keys(points);
-    let mut idx: Vec<usize> = (0..points.len()).collect();
-    idx.sort_unstable_by_key(|&i| (key[i], i));
-    idx
+    let mut pairs: Vec<(u64, usize)> = key.into_iter().zip(0..).collect();
+    pairs.sort_unstable();
+    pairs.into_iter().map(|(_, i)| i).collect()
 }
 
 /// Each point's position along the Hilbert curve of an octree over the bounding box.
