@@ -120,9 +120,10 @@ impl Kernel {
     pub fn insert(&mut self, p: DVec3, hint: u32) -> Option<Inserted> {
         let t = self.locate(p, hint)?;
         let q = self.tet_points(t);
-        if insphere(q[0], q[1], q[2], q[3], p) != Sign::Positive {
-            // p lies in the closed tet and not strictly inside its sphere: a corner.
-            return (0..4).find(|&k| q[k] == p).map(|k| Inserted::Duplicate(self.tets[t as usize].v[k]));
+        // p lies in the closed tet, which meets its circumsphere only at its corners: p is a
+        // corner or strictly inside the sphere (no insphere test needed).
+        if let Some(k) = (0..4).find(|&k| q[k] == p) {
+            return Some(Inserted::Duplicate(self.tets[t as usize].v[k] & VERTEX));
         }
         let pi = self.pts.len() as u32;
         self.pts.push(p);
