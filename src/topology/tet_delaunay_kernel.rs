@@ -48,8 +48,6 @@ pub(crate) struct Kernel {
     /// The tets, vertices and neighbours together (one cache line holds two).
     pub tets: Vec<KTet>,
     free: Vec<u32>,
-    /// Tets flagged [`OUT`] by the current insertion, to unflag at its end.
-    outside: Vec<u32>,
     /// Scratch, kept between insertions so that the loop does not allocate.
     stack: Vec<u32>,
     cavity: Vec<u32>,
@@ -106,7 +104,6 @@ impl Kernel {
             pts,
             tets,
             free: Vec::new(),
-            outside: Vec::with_capacity(64),
             stack: Vec::with_capacity(64),
             cavity: Vec::with_capacity(64),
             boundary: Vec::with_capacity(128),
@@ -178,7 +175,6 @@ impl Kernel {
         self.stack.clear();
         self.cavity.clear();
         self.boundary.clear();
-        self.outside.clear();
         self.stack.push(t);
         self.cavity.push(t);
         while let Some(c) = self.stack.pop() {
@@ -199,7 +195,6 @@ impl Kernel {
                             continue;
                         }
                         self.tets[u].v[3] |= OUT;
-                        self.outside.push(u as u32);
                     }
                 }
                 let mut v = self.tets[c as usize].v;
@@ -233,7 +228,10 @@ impl Kernel {
             self.tets[su].v = v;
             self.tets[su].n[i] = nb;
             if nb != NONE {
-                self.tets[(nb >> 2) as usize].n[(nb & 3) as usize] = (s << 2) | i as u32;
+                // Every tet tested outside lies across a boundary face: its flag goes here.
+                let o = &mut self.tets[(nb >> 2) as usize];
+                o.n[(nb & 3) as usize] = (s << 2) | i as u32;
+                o.v[3] &= VERTEX;
             }
             // The other three faces hold p and one edge of the boundary face: glue them to the
             // new tet on the other side of that edge.
@@ -255,9 +253,6 @@ impl Kernel {
         for &c in &self.cavity[reuse..] {
             self.tets[c as usize].v = [NONE; 4];
             self.free.push(c);
-        }
-        for &u in &self.outside {
-            self.tets[u as usize].v[3] &= VERTEX;
         }
         last
     }
