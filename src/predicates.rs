@@ -78,11 +78,9 @@ pub fn orient3d(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
         + (cdxady.abs() + adxcdy.abs()) * bd.z.abs()
         + (adxbdy.abs() + bdxady.abs()) * cd.z.abs();
     let bound = O3D_BOUND * permanent;
-    if det > bound {
-        return Sign::Negative;
-    }
-    if -det > bound {
-        return Sign::Positive;
+    // As in `insphere`: one branch the filter almost always takes, then the sign as a select.
+    if det.abs() > bound {
+        return if det > 0.0 { Sign::Negative } else { Sign::Positive };
     }
     orient3d_exact(a, b, c, d)
 }
@@ -123,11 +121,10 @@ pub fn insphere(a: DVec3, b: DVec3, c: DVec3, d: DVec3, e: DVec3) -> Sign {
         + (p_ab * dz + p_bd * az + p_da * bz) * clift
         + (p_bc * az + p_ac * bz + p_ab * cz) * dlift;
     let bound = ISP_BOUND * permanent;
-    if det > bound {
-        return Sign::Negative;
-    }
-    if -det > bound {
-        return Sign::Positive;
+    // One branch that the filter almost always takes, then the sign as a select: callers that
+    // compute several tests before looking at them keep them free of branches on the data.
+    if det.abs() > bound {
+        return if det > 0.0 { Sign::Negative } else { Sign::Positive };
     }
     insphere_exact(a, b, c, d, e)
 }

@@ -17,8 +17,14 @@ use super::tetmesh::{face_key, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_VER
 use super::VertexTag;
 use crate::predicates::{orient3d, Sign};
 use glam::DVec3;
-use slotmap::Key;
+use slotmap::{Key, KeyData};
 use std::collections::{HashMap, HashSet};
+
+/// The key that the `i`-th insertion into a fresh slot map returns.
+#[inline]
+fn fresh_key<K: From<KeyData>>(i: u32) -> K {
+    KeyData::from_ffi((1u64 << 32) | (i as u64 + 1)).into()
+}
 
 /// Indices of `points` in a biased randomized insertion order (BRIO, Amenta, Choi and Rote
 /// 2003): rounds growing eightfold drawn at random, each sorted along a 3-D Hilbert curve over
@@ -50,8 +56,16 @@ pub fn hilbert_order_3d(points: &[DVec3]) -> Vec<usize> {
     }
     ends.push(0);
     ends.reverse();
+    // Sorted as (key, index) pairs side by side: a sort that looks keys up through the indices
+    // waits for a cache miss at almost every comparison.
+    let mut pairs: Vec<(u64, usize)> = Vec::with_capacity(n - n / 8);
     for w in ends.windows(2) {
-        idx[w[0]..w[1]].sort_unstable_by_key(|&i| (key[i], i));
+        pairs.clear();
+        pairs.extend(idx[w[0]..w[1]].iter().map(|&i| (key[i], i)));
+        pairs.sort_unstable();
+        for (slot, &(_, i)) in idx[w[0]..w[1]].iter_mut().zip(&pairs) {
+            *slot = i;
+        }
     }
     idx
 }
@@ -60,9 +74,9 @@ pub fn hilbert_order_3d(points: &[DVec3]) -> Vec<usize> {
 /// index): a memory order in which neighbours in space are mostly neighbours in memory.
 pub fn hilbert_sort_3d(points: &[DVec3]) -> Vec<usize> {
     let key = hilbert_keys(points);
-    let mut idx: Vec<usize> = (0..points.len()).collect();
-    idx.sort_unstable_by_key(|&i| (key[i], i));
-    idx
+    let mut pairs: Vec<(u64, usize)> = key.into_iter().zip(0..).collect();
+    pairs.sort_unstable();
+    pairs.into_iter().map(|(_, i)| i).collect()
 }
 
 /// Each point's position along the Hilbert curve of an octree over the bounding box.
@@ -173,46 +187,72 @@ impl TetMesh {
                 None => return Err(InvalidMesh("a point fell outside the enclosing tetrahedron".into())),
             }
         }
-        // To the arena mesh, without the enclosing vertices and their tets.
+        // To the arena mesh, without the enclosing vertices and their tets, in one pass over the
+        // tets: a fresh slot map hands out keys (index i + 1, version 1) in insertion order, so
+        // every key is known before its record is written (each insertion checks it).
         let mut m = TetMesh::with_capacity(k.pts.len());
-        let vid: Vec<TVertexId> = k.pts[4..]
-            .iter()
-            .map(|&pos| m.vertices.insert(TVertex { pos, tet: TetId::null(), tag: VertexTag::Interior }))
-            .collect();
-        // Loops written out (no `array::map`): this copies millions of tets.
-        let mut tid = vec![TetId::null(); k.tets.len()];
+        // The kept kernel tets as a bit set with the count of kept tets before each word: the new
+        // index of a neighbour is then read from 1/32 of the memory a table of indices would take
+        // (in cache, where such a table is not). And a kept tet of each kernel vertex.
+        let mut keep = vec![0u64; k.tets.len().div_ceil(64)];
+        let mut rank = vec![0u32; keep.len()];
+        let mut vtet = vec![NONE; k.pts.len()];
+        let mut kept = 0u32;
         for (t, kt) in k.tets.iter().enumerate() {
+            if t & 63 == 0 {
+                rank[t >> 6] = kept;
+            }
             let w = kt.v;
             if w[0] == NONE || w[0] < 4 || w[1] < 4 || w[2] < 4 || w[3] < 4 {
                 continue;
             }
-            let v = [vid[w[0] as usize - 4], vid[w[1] as usize - 4], vid[w[2] as usize - 4], vid[w[3] as usize - 4]];
-            let id = m.tets.insert(Tet { v, adj: [None; 4], label: 0 });
-            tid[t] = id;
-            for x in v {
-                m.vertices[x].tet = id;
+            keep[t >> 6] |= 1 << (t & 63);
+            for x in w {
+                vtet[x as usize] = kept;
             }
+            kept += 1;
         }
+        let newidx = |u: usize| -> u32 {
+            let (word, bit) = (keep[u >> 6], 1u64 << (u & 63));
+            if word & bit == 0 {
+                NONE
+            } else {
+                rank[u >> 6] + (word & (bit - 1)).count_ones()
+            }
+        };
+        for (w, &pos) in k.pts.iter().enumerate().skip(4) {
+            let tet = if vtet[w] == NONE { TetId::null() } else { fresh_key(vtet[w]) };
+            let id = m.vertices.insert(TVertex { pos, tet, tag: VertexTag::Interior });
+            assert!(id == fresh_key::<TVertexId>(w as u32 - 4), "slot map keys out of order");
+        }
+        // Loops written out (no `array::map`): this copies millions of tets.
         let mut hull = Vec::new();
+        let mut nt = 0u32;
         for (t, kt) in k.tets.iter().enumerate() {
-            if tid[t].is_null() {
+            if keep[t >> 6] & (1 << (t & 63)) == 0 {
                 continue;
             }
+            let w = kt.v;
+            let v = [fresh_key(w[0] - 4), fresh_key(w[1] - 4), fresh_key(w[2] - 4), fresh_key(w[3] - 4)];
+            let me: TetId = fresh_key(nt);
             let mut adj = [None; 4];
             for (j, (a, &nb)) in adj.iter_mut().zip(kt.n.iter()).enumerate() {
-                let u = if nb == NONE { TetId::null() } else { tid[(nb >> 2) as usize] };
-                if u.is_null() {
-                    hull.push((tid[t], j));
+                let u = if nb == NONE { NONE } else { newidx((nb >> 2) as usize) };
+                if u == NONE {
+                    hull.push((me, j));
                 } else {
-                    *a = Some((u, (nb & 3) as u8));
+                    *a = Some((fresh_key(u), (nb & 3) as u8));
                 }
             }
-            m.tets[tid[t]].adj = adj;
+            let id = m.tets.insert(Tet { v, adj, label: 0 });
+            assert!(id == me, "slot map keys out of order");
+            nt += 1;
         }
-        let ids: Vec<TVertexId> = kid.iter().map(|&w| vid[w as usize - 4]).collect();
-        drop(k);
+        let ids: Vec<TVertexId> = kid.iter().map(|&w| fresh_key(w - 4)).collect();
         // Vertices of enclosing tets only; the hull filling below adds tets on hull vertices alone.
-        let lost: Vec<TVertexId> = vid.iter().copied().filter(|&w| m.vertices[w].tet.is_null()).collect();
+        let lost: Vec<TVertexId> =
+            (4..k.pts.len()).filter(|&w| vtet[w] == NONE).map(|w| fresh_key(w as u32 - 4)).collect();
+        drop(k);
         m.fill_hull(hull);
         for w in lost {
             m.vertices.remove(w);

@@ -48,8 +48,6 @@ pub(crate) struct Kernel {
     /// The tets, vertices and neighbours together (one cache line holds two).
     pub tets: Vec<KTet>,
     free: Vec<u32>,
-    /// Tets flagged [`OUT`] by the current insertion, to unflag at its end.
-    outside: Vec<u32>,
     /// Scratch, kept between insertions so that the loop does not allocate.
     stack: Vec<u32>,
     cavity: Vec<u32>,
@@ -106,7 +104,6 @@ impl Kernel {
             pts,
             tets,
             free: Vec::new(),
-            outside: Vec::with_capacity(64),
             stack: Vec::with_capacity(64),
             cavity: Vec::with_capacity(64),
             boundary: Vec::with_capacity(128),
@@ -120,9 +117,10 @@ impl Kernel {
     pub fn insert(&mut self, p: DVec3, hint: u32) -> Option<Inserted> {
         let t = self.locate(p, hint)?;
         let q = self.tet_points(t);
-        if insphere(q[0], q[1], q[2], q[3], p) != Sign::Positive {
-            // p lies in the closed tet and not strictly inside its sphere: a corner.
-            return (0..4).find(|&k| q[k] == p).map(|k| Inserted::Duplicate(self.tets[t as usize].v[k]));
+        // p lies in the closed tet, which meets its circumsphere only at its corners: p is a
+        // corner or strictly inside the sphere (no insphere test needed).
+        if let Some(k) = (0..4).find(|&k| q[k] == p) {
+            return Some(Inserted::Duplicate(self.tets[t as usize].v[k] & VERTEX));
         }
         let pi = self.pts.len() as u32;
         self.pts.push(p);
@@ -177,7 +175,6 @@ impl Kernel {
         self.stack.clear();
         self.cavity.clear();
         self.boundary.clear();
-        self.outside.clear();
         self.stack.push(t);
         self.cavity.push(t);
         while let Some(c) = self.stack.pop() {
@@ -198,7 +195,6 @@ impl Kernel {
                             continue;
                         }
                         self.tets[u].v[3] |= OUT;
-                        self.outside.push(u as u32);
                     }
                 }
                 let mut v = self.tets[c as usize].v;
@@ -232,7 +228,10 @@ impl Kernel {
             self.tets[su].v = v;
             self.tets[su].n[i] = nb;
             if nb != NONE {
-                self.tets[(nb >> 2) as usize].n[(nb & 3) as usize] = (s << 2) | i as u32;
+                // Every tet tested outside lies across a boundary face: its flag goes here.
+                let o = &mut self.tets[(nb >> 2) as usize];
+                o.n[(nb & 3) as usize] = (s << 2) | i as u32;
+                o.v[3] &= VERTEX;
             }
             // The other three faces hold p and one edge of the boundary face: glue them to the
             // new tet on the other side of that edge.
@@ -254,9 +253,6 @@ impl Kernel {
         for &c in &self.cavity[reuse..] {
             self.tets[c as usize].v = [NONE; 4];
             self.free.push(c);
-        }
-        for &u in &self.outside {
-            self.tets[u as usize].v[3] &= VERTEX;
         }
         last
     }
