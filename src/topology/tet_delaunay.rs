@@ -20,10 +20,17 @@ use glam::DVec3;
 use slotmap::{Key, KeyData};
 use std::collections::{HashMap, HashSet};
 
-/// The key that the `i`-th insertion into a fresh slot map returns.
+/// The key that the `i`-th insertion into a fresh slot map returns: slotmap 1.x reserves slot
+/// 0 and gives slot i + 1 version 1, in the layout of `KeyData::as_ffi` (index in the low 32
+/// bits, version in the high ones). slotmap does not promise that layout, so every insertion
+/// that relies on it is checked, and a mismatch is an internal error, not a wrong mesh.
 #[inline]
 fn fresh_key<K: From<KeyData>>(i: u32) -> K {
     KeyData::from_ffi((1u64 << 32) | (i as u64 + 1)).into()
+}
+
+fn keys_out_of_order() -> crate::Error {
+    crate::Error::Internal("the slot map did not hand out keys in insertion order (its key layout changed)".into())
 }
 
 /// Indices of `points` in a biased randomized insertion order (BRIO, Amenta, Choi and Rote
@@ -223,7 +230,9 @@ impl TetMesh {
         for (w, &pos) in k.pts.iter().enumerate().skip(4) {
             let tet = if vtet[w] == NONE { TetId::null() } else { fresh_key(vtet[w]) };
             let id = m.vertices.insert(TVertex { pos, tet, tag: VertexTag::Interior });
-            assert!(id == fresh_key::<TVertexId>(w as u32 - 4), "slot map keys out of order");
+            if id != fresh_key::<TVertexId>(w as u32 - 4) {
+                return Err(keys_out_of_order());
+            }
         }
         // Loops written out (no `array::map`): this copies millions of tets.
         let mut hull = Vec::new();
@@ -245,7 +254,9 @@ impl TetMesh {
                 }
             }
             let id = m.tets.insert(Tet { v, adj, label: 0 });
-            assert!(id == me, "slot map keys out of order");
+            if id != me {
+                return Err(keys_out_of_order());
+            }
             nt += 1;
         }
         let ids: Vec<TVertexId> = kid.iter().map(|&w| fresh_key(w - 4)).collect();
