@@ -341,45 +341,9 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
     }
     equilibrium(&mut ctx, &mut mesh)?;
     settle_boundary(&mut ctx, &mut mesh)?;
-    for round in 0..opts.polish_rounds {
-        let changed = improve(&mut ctx, &mut mesh, round)?;
-        if ctx.trace {
-            let q = QualityStats3::of(&mesh);
-            eprintln!(
-                "polish {round}: {changed} changes, dihedral {:.2} .. {:.2}, rr mean {:.4}",
-                q.dihedral_min, q.dihedral_max, q.rr_mean
-            );
-        }
-        if changed == 0 {
-            break;
-        }
-    }
-    for round in 0..LAPLACE_ROUNDS {
-        let moved = smart_laplacian(&mut ctx, &mut mesh)?;
-        if ctx.trace {
-            let q = QualityStats3::of(&mesh);
-            eprintln!(
-                "laplace {round}: {moved} moves, dihedral {:.2} .. {:.2}, rr mean {:.4}",
-                q.dihedral_min, q.dihedral_max, q.rr_mean
-            );
-        }
-        if moved == 0 {
-            break;
-        }
-    }
-    for round in 0..RR_ROUNDS {
-        let changed = mean_quality_round(&mut ctx, &mut mesh)?;
-        if ctx.trace {
-            let q = QualityStats3::of(&mesh);
-            eprintln!(
-                "mean quality {round}: {changed} changes, dihedral {:.2} .. {:.2}, rr mean {:.4}",
-                q.dihedral_min, q.dihedral_max, q.rr_mean
-            );
-        }
-        if changed == 0 {
-            break;
-        }
-    }
+    repeat_rounds(&mut ctx, &mut mesh, opts.polish_rounds, "polish", |c, m, round| improve(c, m, round))?;
+    repeat_rounds(&mut ctx, &mut mesh, LAPLACE_ROUNDS, "laplace", |c, m, _| smart_laplacian(c, m))?;
+    repeat_rounds(&mut ctx, &mut mesh, RR_ROUNDS, "mean quality", |c, m, _| mean_quality_round(c, m))?;
     if ctx.trace {
         let mut w: Vec<(f64, TetId)> = mesh.tet_ids().map(|t| (tq(mesh.tet_points(t)), t)).collect();
         w.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -736,6 +700,31 @@ fn guard_inversions(snap: &Snapshot, old: &[DVec3], newp: &mut [DVec3]) {
 }
 
 // ============================ force equilibrium ============================
+
+/// Runs `step` for up to `rounds` rounds, stopping after a round that changed nothing; with
+/// tracing on, prints the dihedral range and the mean radius ratio after each.
+fn repeat_rounds(
+    ctx: &mut Ctx,
+    mesh: &mut TetMesh,
+    rounds: usize,
+    name: &str,
+    mut step: impl FnMut(&mut Ctx, &mut TetMesh, usize) -> Result<usize, Error>,
+) -> Result<(), Error> {
+    for round in 0..rounds {
+        let changed = step(ctx, mesh, round)?;
+        if ctx.trace {
+            let q = QualityStats3::of(mesh);
+            eprintln!(
+                "{name} {round}: {changed} changes, dihedral {:.2} .. {:.2}, rr mean {:.4}",
+                q.dihedral_min, q.dihedral_max, q.rr_mean
+            );
+        }
+        if changed == 0 {
+            break;
+        }
+    }
+    Ok(())
+}
 
 fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
     let opts = ctx.opts;
