@@ -398,7 +398,7 @@ impl Spec {
 
 /// A progress bar on stderr that appears once a run has taken a second; `unit` names what it
 /// counts.
-pub(crate) fn progress_bar(quiet: bool, unit: &str) -> Option<ProgressBar> {
+fn progress_bar(quiet: bool, unit: &str) -> Option<ProgressBar> {
     if quiet || !std::io::stderr().is_terminal() {
         return None;
     }
@@ -408,6 +408,17 @@ pub(crate) fn progress_bar(quiet: bool, unit: &str) -> Option<ProgressBar> {
         pb.set_style(style.progress_chars("=> "));
     }
     Some(pb)
+}
+
+/// Runs `job` with a progress bar (see [`progress_bar`]) handed to it, cleared afterwards
+/// whatever the outcome.
+pub(crate) fn with_progress_bar<T>(quiet: bool, unit: &str, job: impl FnOnce(Option<ProgressBar>) -> T) -> T {
+    let pb = progress_bar(quiet, unit);
+    let out = job(pb.clone());
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    out
 }
 
 /// The progress callback both meshers take: the bar appears once a run has taken a second.
@@ -491,12 +502,7 @@ impl Job {
             return mesh3(self, quiet);
         }
         let geom = ExprImplicit2 { expr: self.domain.clone(), distance: !self.implicit };
-        let pb = progress_bar(quiet, "iterations");
-        let out = mesh_2d(&geom, &self.options2(pb.clone()));
-        if let Some(pb) = pb {
-            pb.finish_and_clear();
-        }
-        let out = out?;
+        let out = with_progress_bar(quiet, "iterations", |pb| mesh_2d(&geom, &self.options2(pb)))?;
         let (points, tris, labels, _) = out.mesh.to_arrays();
         let subdomain =
             if labels.iter().any(|&l| l != 0) { Some(labels.iter().map(|&l| l as i32).collect()) } else { None };
@@ -523,12 +529,7 @@ fn mesh3(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
         }
     }
     let geom = ExprImplicit3 { expr: job.domain.clone(), distance: !job.implicit };
-    let pb = progress_bar(quiet, "iterations");
-    let out = mesh_3d(&geom, &job.options3(pb.clone()));
-    if let Some(pb) = pb {
-        pb.finish_and_clear();
-    }
-    let out = out?;
+    let out = with_progress_bar(quiet, "iterations", |pb| mesh_3d(&geom, &job.options3(pb)))?;
     let (points, tets, labels, _) = out.mesh.to_arrays();
     let subdomain =
         if labels.iter().any(|&l| l != 0) { Some(labels.iter().map(|&l| l as i32).collect()) } else { None };

@@ -81,15 +81,12 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
     if let Some(n) = args.max_iter {
         opts = opts.with_max_iterations(n);
     }
-    let pb = super::mesh::progress_bar(args.quiet, "stages");
-    if let Some(pb) = &pb {
-        opts = opts.with_progress(super::mesh::progress_callback(pb.clone()));
-    }
-    let out = mesh_implicit_surface(&phi, &opts);
-    if let Some(pb) = pb {
-        pb.finish_and_clear();
-    }
-    let out = out?;
+    let out = super::mesh::with_progress_bar(args.quiet, "stages", |pb| {
+        if let Some(pb) = pb {
+            opts = opts.with_progress(super::mesh::progress_callback(pb));
+        }
+        mesh_implicit_surface(&phi, &opts)
+    })?;
     let data = MeshData::from_trimesh3(&out.mesh);
     for p in &args.output {
         write_output(p, &data, phi_src)?;
