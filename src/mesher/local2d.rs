@@ -35,8 +35,19 @@ const Q_REPAIR: f64 = 0.02;
 /// Nodes moved farther than this many local sizes since their last check get their edges
 /// re-checked for the Delaunay property (the seed's ttol, applied per node).
 const TTOL: f64 = 0.1;
+/// The final smoothing moves the interior vertices of triangles below this quality, for at
+/// most POLISH_ROUNDS rounds of at most POLISH_STEPS pattern-search steps per vertex.
+const POLISH_Q: f64 = 0.75;
+const POLISH_ROUNDS: usize = 4;
+const POLISH_STEPS: usize = 40;
+/// Initial meshes with more vertices than this are laid out along a Hilbert curve, and their
+/// force loop skips settled nodes.
+const RELAYOUT_ABOVE: usize = 20_000;
 /// Density control runs every this many iterations.
 const DENSITY_EVERY: usize = 10;
+/// Between full sweeps, a node that moved less than this many local sizes in a step, with
+/// neighbours that did too, is settled and skipped (a tenth of the default dptol).
+const SETTLE: f64 = 5e-4;
 /// A boundary node leaves the boundary only once the ear it leaves behind has this quality.
 const EAR_Q: f64 = 0.2;
 /// The run stops on a quality plateau: the mean quality, sampled every DENSITY_EVERY
@@ -310,7 +321,14 @@ pub(crate) fn run_moving(
         Some(fz) => freeze_far_nodes(&ctx, &mut mesh, fz)?,
         None => Vec::new(),
     };
+    let trace = std::env::var_os("TRUSSMESH_TRACE").is_some();
+    if trace {
+        eprintln!("start ready at {:.3} s", t0.elapsed().as_secs_f64());
+    }
     equilibrium(&mut ctx, &mut mesh)?;
+    if trace {
+        eprintln!("equilibrium done at {:.3} s", t0.elapsed().as_secs_f64());
+    }
     for v in frozen {
         if mesh.contains_vertex(v) {
             let tag = if mesh.is_boundary_vertex(v) { VertexTag::Boundary } else { VertexTag::Interior };
@@ -518,13 +536,30 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
             }
         }
     }
-    let tri: Vec<[usize; 3]> = keep.iter().map(|t| [map[t[0]], map[t[1]], map[t[2]]]).collect();
+    // Large meshes: vertices along a Hilbert curve and faces by their first vertex there, so
+    // that neighbours sit near each other in the arenas and in the force loop's arrays (the
+    // refinement leaves each level's vertices in one block, and every sweep would wait on cache
+    // misses). Small ones fit in cache and keep the refinement's order.
+    let relayout = pts.len() > RELAYOUT_ABOVE;
+    let order: Vec<usize> = if relayout { crate::topology::hilbert_order(&pts) } else { (0..pts.len()).collect() };
+    let mut rank = vec![0usize; pts.len()];
+    for (r, &i) in order.iter().enumerate() {
+        rank[i] = r;
+    }
+    let pts: Vec<DVec2> = order.iter().map(|&i| pts[i]).collect();
+    let is_fixed: Vec<bool> = order.iter().map(|&i| is_fixed[i]).collect();
+    let mut tri: Vec<([usize; 3], u32)> =
+        keep.iter().map(|t| ([rank[map[t[0]]], rank[map[t[1]]], rank[map[t[2]]]], keep_label[t])).collect();
+    if relayout {
+        tri.sort_unstable_by_key(|(t, _)| (t[0].min(t[1]).min(t[2]), *t));
+    }
+    let (labels, tri): (Vec<u32>, Vec<[usize; 3]>) = tri.into_iter().map(|(t, l)| (l, t)).unzip();
     let (mut out, ids) =
         TriMesh::from_arrays(&pts, &tri).map_err(|e| Error::Internal(format!("carving the initial mesh: {e}")))?;
     // from_arrays creates the faces in triangle order: labels (subdomains) carry over.
     let faces: Vec<crate::topology::FaceId> = out.face_ids().collect();
-    for (f, t) in faces.into_iter().zip(&keep) {
-        out.set_label(f, keep_label[t]);
+    for (f, l) in faces.into_iter().zip(labels) {
+        out.set_label(f, l);
     }
     for (i, &v) in ids.iter().enumerate() {
         let tag = if is_fixed[i] {
@@ -737,6 +772,9 @@ struct Snapshot {
     adj: Vec<u32>,
     tris: Vec<[u32; 3]>,
     tri_faces: Vec<crate::topology::FaceId>,
+    /// The triangles (indices into `tris`) of each vertex, CSR.
+    vt_start: Vec<u32>,
+    vt: Vec<u32>,
     /// Every edge: endpoints, one half-edge, and its kind (EDGE_*).
     edges: Vec<(u32, u32, HalfEdgeId, u8)>,
     /// Flippable edges (interior, same label both sides): a, b, and the opposite c, d.
@@ -771,6 +809,9 @@ impl Snapshot {
         let mut quads = Vec::with_capacity(m.num_edges());
         let mut quad_edges = Vec::with_capacity(m.num_edges());
         let mut deg = vec![0u32; n + 1];
+        // One subdomain (the usual case): no face record needs reading per edge.
+        let first_label = m.face_ids().next().map(|f| m.face(f).label);
+        let one_label = m.face_ids().all(|f| Some(m.face(f).label) == first_label);
         for h in m.edge_ids() {
             let t = m.twin(h);
             let (a, b) = (index[m.origin(h)], index[m.origin(t)]);
@@ -778,7 +819,7 @@ impl Snapshot {
             deg[b as usize] += 1;
             match (m.face_of(h), m.face_of(t)) {
                 (Some(f1), Some(f2)) => {
-                    if m.face(f1).label == m.face(f2).label {
+                    if one_label || m.face(f1).label == m.face(f2).label {
                         edges.push((a, b, h, EDGE_INTERIOR));
                         let c = index[m.origin(m.prev(h))];
                         let d = index[m.origin(m.prev(t))];
@@ -811,6 +852,23 @@ impl Snapshot {
         for f in m.face_ids() {
             tris.push(m.face_vertices(f).map(|v| index[v]));
             tri_faces.push(f);
+        }
+        let mut vt_start = vec![0u32; n + 1];
+        for t in &tris {
+            for &v in t {
+                vt_start[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            vt_start[i + 1] += vt_start[i];
+        }
+        let mut cursor: Vec<u32> = vt_start[..n].to_vec();
+        let mut vt = vec![0u32; 3 * tris.len()];
+        for (k, t) in tris.iter().enumerate() {
+            for &v in t {
+                vt[cursor[v as usize] as usize] = k as u32;
+                cursor[v as usize] += 1;
+            }
         }
         let mut loop_nbrs = vec![(u32::MAX, u32::MAX); ids.len()];
         let mut apexes = Vec::new();
@@ -846,7 +904,48 @@ impl Snapshot {
                 }
             }
         }
-        Snapshot { ids, kind, adj_start, adj, tris, tri_faces, edges, quads, quad_edges, loop_nbrs, apexes, iface_nbrs }
+        Snapshot {
+            ids,
+            kind,
+            adj_start,
+            adj,
+            tris,
+            tri_faces,
+            vt_start,
+            vt,
+            edges,
+            quads,
+            quad_edges,
+            loop_nbrs,
+            apexes,
+            iface_nbrs,
+        }
+    }
+
+    /// The nodes that moved (`moved`) and their neighbours, ascending.
+    fn active_nodes(&self, moved: &[bool]) -> Vec<u32> {
+        let mut mark = moved.to_vec();
+        for (i, _) in moved.iter().enumerate().filter(|(_, &m)| m) {
+            for k in self.adj_start[i]..self.adj_start[i + 1] {
+                mark[self.adj[k as usize] as usize] = true;
+            }
+        }
+        (0..mark.len() as u32).filter(|&i| mark[i as usize]).collect()
+    }
+
+    /// The triangles of the given vertices, each once, in order of first appearance.
+    fn triangles_of(&self, vertices: &[u32]) -> Vec<u32> {
+        let mut seen = vec![false; self.tris.len()];
+        let mut out = Vec::with_capacity(2 * vertices.len());
+        for &v in vertices {
+            for k in self.vt_start[v as usize]..self.vt_start[v as usize + 1] {
+                let t = self.vt[k as usize];
+                if !std::mem::replace(&mut seen[t as usize], true) {
+                    out.push(t);
+                }
+            }
+        }
+        out
     }
 
     /// Edges that fail the exact in-circle test at positions `p`, found in parallel.
@@ -860,14 +959,18 @@ impl Snapshot {
         })
     }
 
-    /// With a metric, `ctx` decides by [`Ctx::metric_flip`] instead.
-    fn non_delaunay(&self, p: &[DVec2], ctx: Option<&Ctx>) -> Vec<HalfEdgeId> {
+    /// Only quads with a vertex away from `pold` (its position at the last check): the others
+    /// were checked then. With a metric, `ctx` decides by [`Ctx::metric_flip`] instead.
+    fn non_delaunay(&self, p: &[DVec2], pold: &[DVec2], ctx: Option<&Ctx>) -> Vec<HalfEdgeId> {
         self.quads
             .par_iter()
             .zip(self.quad_edges.par_iter())
             .with_min_len(CHUNK)
             .filter(|(q, _)| {
                 let [a, b, c, d] = **q;
+                if q.iter().all(|&v| p[v as usize] == pold[v as usize]) {
+                    return false;
+                }
                 let (pa, pb, pc, pd) = (p[a as usize], p[b as usize], p[c as usize], p[d as usize]);
                 match ctx {
                     Some(ctx) => ctx.metric_flip(pa, pb, pc, pd),
@@ -932,6 +1035,21 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     let mut converged = false;
     let mut iter = 0;
     let mut unit = h0;
+    // The active set: between full sweeps only nodes that moved more than SETTLE local sizes
+    // in the last step, and their neighbours, get forces. A settled region keeps its forces
+    // (nothing in it moved), so skipping it changes nothing but the cost: the lattice interior
+    // of the start is in equilibrium from the first step, and most of the run is spent near
+    // the boundary. Full sweeps: the first step after a topology change, every DENSITY_EVERY-th
+    // step (the size scale of eq. 2.6 is summed there), and every step with a metric or from a
+    // previous mesh (short runs of a few steps that must undo a distortion everywhere) or of a
+    // small mesh (a sweep costs microseconds there).
+    let large = p.len() > RELAYOUT_ABOVE;
+    let mut newp = p.clone();
+    let mut moved: Vec<bool> = vec![true; p.len()];
+    let mut need_full = true;
+    let mut sums: Vec<(f64, f64)> = Vec::new();
+    let mut stepped_last: Vec<bool> = vec![true; p.len()];
+    let mut swept = 0usize;
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         let mut val = [0usize; 12];
         for i in 0..p.len() {
@@ -952,11 +1070,18 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         if let Some(cb) = &opts.progress {
             cb(iter, opts.max_iter);
         }
+        let full = need_full || !large || metric.is_some() || ctx.from_previous || iter % DENSITY_EVERY == 1;
+        need_full = false;
+        let active: Vec<u32> = if full { (0..p.len() as u32).collect() } else { snap.active_nodes(&moved) };
+        swept += active.len();
         if metric.is_some() {
             mv = p.par_iter().map(|&x| ctx.metric_at(x)).collect::<Result<Vec<Metric2>, Error>>()?;
             hv = mv.par_iter().map(|m| m.smallest_size() / h0).collect();
         } else if !uniform {
-            hv = p.par_iter().map(|&x| ctx.h(x)).collect::<Result<Vec<f64>, Error>>()?;
+            let hs = active.par_iter().map(|&i| ctx.h(p[i as usize])).collect::<Result<Vec<f64>, Error>>()?;
+            for (&i, h) in active.iter().zip(hs) {
+                hv[i as usize] = h;
+            }
         }
         // With a metric: every edge's metric length, integrated along it (Simpson's rule
         // with M at the endpoints and the midpoint), indexed by adjacency slot.
@@ -980,7 +1105,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         };
         // Seed eq. 2.6: L0 = h_bar Fscale sqrt(sum L^2 / sum h_bar^2); with a metric every
         // desired length is one, so L0 = Fscale sqrt(mean of the squared metric lengths).
-        let (sl, sh) = det_sum(p.len(), |i| {
+        let node_sums = |i: usize| {
             if metric.is_some() {
                 let mut s = (0.0, 0.0);
                 for k in snap.adj_start[i]..snap.adj_start[i + 1] {
@@ -998,7 +1123,20 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                 s.1 += hb * hb;
             }
             s
-        });
+        };
+        // Each node's share of the sums, refreshed where an incident edge changed (a node that
+        // stepped last time, or its neighbour); the total is summed in a fixed order, so the
+        // scale is the one a full pass would give, bit for bit.
+        if full {
+            sums = (0..p.len()).into_par_iter().with_min_len(CHUNK).map(node_sums).collect();
+        } else {
+            let stale = snap.active_nodes(&stepped_last);
+            let fresh: Vec<(f64, f64)> = stale.par_iter().with_min_len(CHUNK).map(|&i| node_sums(i as usize)).collect();
+            for (&i, s) in stale.iter().zip(fresh) {
+                sums[i as usize] = s;
+            }
+        }
+        let (sl, sh) = det_sum(p.len(), |i| sums[i]);
         let scale = opts.fscale * (sl / sh).sqrt();
         // With a metric: the boundary pushes back on interior nodes through a bar to their
         // mirror image across d = 0, of rest length twice an equilateral height (sqrt 3 L0):
@@ -1029,10 +1167,11 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         };
         // Forces gathered per vertex (deterministic in parallel), forward Euler step.
         let dt = opts.deltat;
-        let mut newp: Vec<DVec2> = (0..p.len())
-            .into_par_iter()
+        let stepped: Vec<DVec2> = active
+            .par_iter()
             .with_min_len(CHUNK)
-            .map(|i| {
+            .map(|&i| {
+                let i = i as usize;
                 if snap.kind[i] == FIXED {
                     return p[i];
                 }
@@ -1060,6 +1199,9 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                 p[i] + dt * f
             })
             .collect();
+        for (&i, q) in active.iter().zip(stepped) {
+            newp[i as usize] = q;
+        }
         // Interior movement before projection: the seed's stop criterion.
         let step = |i: usize, q: &[DVec2]| {
             if metric.is_some() {
@@ -1068,9 +1210,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                 q[i].distance(p[i]) / (h0 * hv[i])
             }
         };
-        let interior_move = (0..p.len())
-            .into_par_iter()
+        let interior_move = active
+            .par_iter()
             .with_min_len(CHUNK)
+            .map(|&i| i as usize)
             .filter(|&i| snap.kind[i] == INTERIOR)
             .map(|i| step(i, &newp))
             .reduce(|| 0.0, f64::max);
@@ -1078,7 +1221,8 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         // boundary node whose raw step ends inside the chord of its boundary neighbours leaves
         // the boundary; an interior node whose raw step crosses the boundary edge below it joins.
         let mut leaving: Vec<(usize, DVec2)> = Vec::new();
-        for i in 0..p.len() {
+        for &i in &active {
+            let i = i as usize;
             if snap.kind[i] == BOUNDARY && snap.loop_nbrs[i].0 != u32::MAX {
                 let (a, c) = snap.loop_nbrs[i];
                 if orient2d(p[a as usize], newp[i], p[c as usize]) == Sign::Positive {
@@ -1104,9 +1248,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             .collect();
         joining.dedup();
         // Boundary nodes back onto d = 0; interior nodes must stay inside.
-        let fixes: Vec<(usize, DVec2)> = (0..p.len())
-            .into_par_iter()
+        let fixes: Vec<(usize, DVec2)> = active
+            .par_iter()
             .with_min_len(256)
+            .map(|&i| i as usize)
             .filter_map(|i| match snap.kind[i] {
                 // Boundary nodes inside move freely (the carved start's outer row) and are
                 // projected once outside (seed step 7), as the pressure keeps them there.
@@ -1165,24 +1310,37 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             }
         }
         // Step control: no triangle may invert; vertices of offending triangles step back.
-        guard_inversions(&snap, &p, &mut newp);
+        let tris = if full { None } else { Some(snap.triangles_of(&active)) };
+        guard_inversions(&snap, &p, &mut newp, tris.as_deref());
         // Boundary nodes count too once the step is taken: a node still travelling to d = 0
         // (a start cut from a previous mesh) is not settled.
-        let boundary_move = (0..p.len())
-            .into_par_iter()
+        let boundary_move = active
+            .par_iter()
             .with_min_len(CHUNK)
+            .map(|&i| i as usize)
             .filter(|&i| snap.kind[i] == BOUNDARY || snap.kind[i] == INTERNAL)
             .map(|i| step(i, &newp))
             .reduce(|| 0.0, f64::max);
         let max_move = interior_move.max(boundary_move);
-        p = newp;
+        moved.iter_mut().for_each(|x| *x = false);
+        stepped_last.iter_mut().for_each(|x| *x = false);
+        for &i in &active {
+            stepped_last[i as usize] = true;
+            moved[i as usize] = step(i as usize, &newp) > SETTLE;
+        }
+        for &i in &active {
+            p[i as usize] = newp[i as usize];
+        }
         // Connectivity: when some node is far from where it was at the last check (the seed's
         // ttol), every edge gets the exact in-circle test (in parallel) and bad ones flip.
         let mut topo_changed = false;
-        let far = (0..p.len()).into_par_iter().with_min_len(CHUNK).any(|i| p[i].distance(pold[i]) > TTOL * h0 * hv[i]);
+        let far = active.par_iter().with_min_len(CHUNK).any(|&i| {
+            let i = i as usize;
+            p[i].distance(pold[i]) > TTOL * h0 * hv[i]
+        });
         if far {
+            let bad = snap.non_delaunay(&p, &pold, metric.map(|_| &*ctx));
             pold.copy_from_slice(&p);
-            let bad = snap.non_delaunay(&p, metric.map(|_| &*ctx));
             if !bad.is_empty() {
                 write_back(m, &snap, &p);
                 let flips = ctx.legalize(m, bad);
@@ -1225,6 +1383,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             slots.clear();
             p = snap.ids.iter().map(|&v| m.pos(v)).collect();
             pold = p.clone();
+            newp = p.clone();
+            moved = vec![true; p.len()];
+            stepped_last = vec![true; p.len()];
+            need_full = true;
             hv = vec![1.0; p.len()];
             if metric.is_some() {
                 mv = p.par_iter().map(|&x| ctx.metric_at(x)).collect::<Result<Vec<Metric2>, Error>>()?;
@@ -1233,7 +1395,8 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                 hv = p.par_iter().map(|&x| ctx.h(x)).collect::<Result<Vec<f64>, Error>>()?;
             }
         }
-        if max_move < opts.dptol && iter > DENSITY_EVERY {
+        // Only a full sweep sees every node's step: a settled node's force may have grown since.
+        if full && max_move < opts.dptol && iter > DENSITY_EVERY {
             converged = true;
             ctx.report.stop_reason = format!("nodes moved less than dptol = {} (relative to h)", opts.dptol);
             break;
@@ -1265,7 +1428,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
     }
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
-        eprintln!("{rebuilds} snapshot rebuilds in {iter} iterations");
+        eprintln!(
+            "{rebuilds} snapshot rebuilds in {iter} iterations, {:.1} full sweeps of force work",
+            swept as f64 / p.len().max(1) as f64
+        );
     }
     // Every boundary node ends on d = 0.
     project_boundary(ctx, &snap, &mut p, m)?;
@@ -1279,6 +1445,9 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     density_control(ctx, m, cands)?;
     ctx.report.flips += ctx.make_delaunay(m);
     settle_boundary(ctx, m)?;
+    if polish_worst(ctx, m)? > 0 {
+        ctx.report.flips += ctx.make_delaunay(m);
+    }
     ctx.report.iterations = iter;
     ctx.report.converged = converged;
     if !converged {
@@ -1286,6 +1455,79 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             format!("iteration cap of {} reached; the mesh is the last valid state", opts.max_iter);
     }
     Ok(())
+}
+
+/// Optimisation-based smoothing of the worst triangles (Freitag and Ollivier-Gooch 1997): each
+/// interior vertex of a triangle below POLISH_Q moves, by a pattern search, to where the worst
+/// triangle of its star is best. A move is kept only when it raises that minimum, keeps every
+/// triangle of the star positive (exact) and the vertex inside the domain. The truss leaves such
+/// triangles where the boundary spacing and the interior rows meet: its forces even out lengths,
+/// they do not raise a minimum. Returns the number of vertices moved.
+fn polish_worst(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<usize, Error> {
+    let mut moved = 0;
+    for _ in 0..POLISH_ROUNDS {
+        let mut seen = crate::FastSet::default();
+        let mut verts: Vec<VertexId> = Vec::new();
+        for f in m.face_ids() {
+            let t = m.face_vertices(f);
+            if ctx.tri_q(t.map(|v| m.pos(v))) < POLISH_Q {
+                verts.extend(t.into_iter().filter(|&v| m.tag(v) == VertexTag::Interior && seen.insert(v)));
+            }
+        }
+        let mut round = 0;
+        for v in verts {
+            if let Some(p) = best_star_position(ctx, m, v)? {
+                if m.relocate(v, p).is_ok() {
+                    round += 1;
+                }
+            }
+        }
+        moved += round;
+        if round == 0 {
+            break;
+        }
+    }
+    Ok(moved)
+}
+
+/// The pattern search of [`polish_worst`] for one vertex: `None` when no better place is found.
+fn best_star_position(ctx: &Ctx, m: &TriMesh<DVec2>, v: VertexId) -> Result<Option<DVec2>, Error> {
+    let faces = m.vertex_faces(v);
+    let stars: smallvec::SmallVec<[[VertexId; 3]; 8]> = faces.iter().map(|&f| m.face_vertices(f)).collect();
+    let worst = |x: DVec2| -> f64 {
+        let mut w = f64::INFINITY;
+        for t in &stars {
+            let q = t.map(|u| if u == v { x } else { m.pos(u) });
+            if orient2d(q[0], q[1], q[2]) != Sign::Positive {
+                return -1.0;
+            }
+            w = w.min(ctx.tri_q(q));
+        }
+        w
+    };
+    let start = m.pos(v);
+    let reach = stars.iter().flat_map(|t| t.iter()).map(|&u| m.pos(u).distance(start)).fold(0.0, f64::max);
+    let (mut at, mut best) = (start, worst(start));
+    let mut step = 0.1 * reach;
+    for _ in 0..POLISH_STEPS {
+        let mut next = None;
+        for k in 0..8 {
+            let a = k as f64 * std::f64::consts::FRAC_PI_4;
+            let x = at + step * DVec2::new(a.cos(), a.sin());
+            let q = worst(x);
+            if q > best && next.map_or(true, |(_, b)| q > b) {
+                next = Some((x, q));
+            }
+        }
+        match next {
+            Some((x, q)) if ctx.approx_dist(x)? < -ctx.geps => (at, best) = (x, q),
+            _ => step *= 0.5,
+        }
+        if step < 1e-3 * reach {
+            break;
+        }
+    }
+    Ok((at != start).then_some(at))
 }
 
 /// Boundary nodes pushed inside become interior (a boundary ear is filled over them); interior
@@ -1485,7 +1727,7 @@ fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &TriMesh<DVe
             newp[i] = q;
         }
     }
-    guard_inversions(snap, &old, &mut newp);
+    guard_inversions(snap, &old, &mut newp, None);
     p.copy_from_slice(&newp);
     let _ = m;
     Ok(())
@@ -1494,18 +1736,28 @@ fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &TriMesh<DVe
 /// Halves the step of every vertex of a triangle that would not be positively oriented (exact),
 /// three times, then puts them back; repeats until every triangle is positive. The old
 /// positions are valid, so this ends.
-fn guard_inversions(snap: &Snapshot, old: &[DVec2], newp: &mut [DVec2]) {
+///
+/// `tris`: the triangles that can have moved (indices into `snap.tris`); all when `None`.
+fn guard_inversions(snap: &Snapshot, old: &[DVec2], newp: &mut [DVec2], tris: Option<&[u32]>) {
     let mut factor = vec![1u8; old.len()]; // halvings applied
+    let all: Vec<u32>;
+    let tris = match tris {
+        Some(t) => t,
+        None => {
+            all = (0..snap.tris.len() as u32).collect();
+            &all
+        }
+    };
     loop {
-        let bad: Vec<u32> = snap
-            .tris
+        let bad: Vec<u32> = tris
             .par_iter()
             .with_min_len(CHUNK)
+            .map(|&t| snap.tris[t as usize])
             .filter(|t| {
-                let [a, b, c] = **t;
+                let [a, b, c] = *t;
                 orient2d(newp[a as usize], newp[b as usize], newp[c as usize]) != Sign::Positive
             })
-            .flat_map_iter(|t| t.iter().copied())
+            .flat_map_iter(|t| t.into_iter())
             .collect();
         if bad.is_empty() {
             return;
