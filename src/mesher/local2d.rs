@@ -922,25 +922,32 @@ impl Snapshot {
         }
     }
 
-    /// The nodes that moved (`moved`) and their neighbours, ascending.
-    fn active_nodes(&self, moved: &[bool]) -> Vec<u32> {
-        let mut mark = moved.to_vec();
-        for (i, _) in moved.iter().enumerate().filter(|(_, &m)| m) {
-            for k in self.adj_start[i]..self.adj_start[i + 1] {
-                mark[self.adj[k as usize] as usize] = true;
+    /// The given nodes and their neighbours, each once, in order of first appearance.
+    fn with_neighbours(&self, nodes: &[u32], marks: &mut Marks) -> Vec<u32> {
+        marks.reset(self.ids.len());
+        let mut out = Vec::with_capacity(4 * nodes.len());
+        for &i in nodes {
+            if marks.mark(i) {
+                out.push(i);
+            }
+            for k in self.adj_start[i as usize]..self.adj_start[i as usize + 1] {
+                let j = self.adj[k as usize];
+                if marks.mark(j) {
+                    out.push(j);
+                }
             }
         }
-        (0..mark.len() as u32).filter(|&i| mark[i as usize]).collect()
+        out
     }
 
     /// The triangles of the given vertices, each once, in order of first appearance.
-    fn triangles_of(&self, vertices: &[u32]) -> Vec<u32> {
-        let mut seen = vec![false; self.tris.len()];
+    fn triangles_of(&self, vertices: &[u32], marks: &mut Marks) -> Vec<u32> {
+        marks.reset(self.tris.len());
         let mut out = Vec::with_capacity(2 * vertices.len());
         for &v in vertices {
             for k in self.vt_start[v as usize]..self.vt_start[v as usize + 1] {
                 let t = self.vt[k as usize];
-                if !std::mem::replace(&mut seen[t as usize], true) {
+                if marks.mark(t) {
                     out.push(t);
                 }
             }
@@ -979,6 +986,31 @@ impl Snapshot {
             })
             .map(|(_, h)| *h)
             .collect()
+    }
+}
+
+/// Membership marks over `0..n` that are cleared in O(1): a generation counter.
+#[derive(Default)]
+struct Marks {
+    stamp: Vec<u32>,
+    now: u32,
+}
+
+impl Marks {
+    /// Forgets every mark; makes room for `n` items.
+    fn reset(&mut self, n: usize) {
+        if self.stamp.len() != n || self.now == u32::MAX {
+            self.stamp = vec![0; n];
+            self.now = 0;
+        }
+        self.now += 1;
+    }
+    /// Marks i; true when it was not marked yet.
+    fn mark(&mut self, i: u32) -> bool {
+        let s = &mut self.stamp[i as usize];
+        let fresh = *s != self.now;
+        *s = self.now;
+        fresh
     }
 }
 
@@ -1045,11 +1077,17 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     // small mesh (a sweep costs microseconds there).
     let large = p.len() > RELAYOUT_ABOVE;
     let mut newp = p.clone();
-    let mut moved: Vec<bool> = vec![true; p.len()];
+    // Nodes that moved more than SETTLE in the last step, and every node that stepped at all.
+    let mut moved: Vec<u32> = Vec::new();
+    let mut stepped_last: Vec<u32> = Vec::new();
     let mut need_full = true;
     let mut sums: Vec<(f64, f64)> = Vec::new();
-    let mut stepped_last: Vec<bool> = vec![true; p.len()];
+    let mut chunk_sums: Vec<(f64, f64)> = Vec::new();
+    let mut marks = Marks::default();
+    let mut tri_marks = Marks::default();
     let mut swept = 0usize;
+    let mut build_s = 0.0;
+    let (mut full_s, mut part_s) = (0.0, 0.0);
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         let mut val = [0usize; 12];
         for i in 0..p.len() {
@@ -1070,9 +1108,11 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         if let Some(cb) = &opts.progress {
             cb(iter, opts.max_iter);
         }
+        let ti = Instant::now();
         let full = need_full || !large || metric.is_some() || ctx.from_previous || iter % DENSITY_EVERY == 1;
         need_full = false;
-        let active: Vec<u32> = if full { (0..p.len() as u32).collect() } else { snap.active_nodes(&moved) };
+        let active: Vec<u32> =
+            if full { (0..p.len() as u32).collect() } else { snap.with_neighbours(&moved, &mut marks) };
         swept += active.len();
         if metric.is_some() {
             mv = p.par_iter().map(|&x| ctx.metric_at(x)).collect::<Result<Vec<Metric2>, Error>>()?;
@@ -1127,16 +1167,28 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         // Each node's share of the sums, refreshed where an incident edge changed (a node that
         // stepped last time, or its neighbour); the total is summed in a fixed order, so the
         // scale is the one a full pass would give, bit for bit.
+        // Partial sums per CHUNK nodes, added in order: the same sums as `det_sum`.
+        let chunk_total = |sums: &[(f64, f64)], c: usize| {
+            sums[c * CHUNK..((c + 1) * CHUNK).min(sums.len())].iter().fold((0.0, 0.0), |a, s| (a.0 + s.0, a.1 + s.1))
+        };
         if full {
             sums = (0..p.len()).into_par_iter().with_min_len(CHUNK).map(node_sums).collect();
+            chunk_sums = (0..p.len().div_ceil(CHUNK)).map(|c| chunk_total(&sums, c)).collect();
         } else {
-            let stale = snap.active_nodes(&stepped_last);
+            let stale = snap.with_neighbours(&stepped_last, &mut marks);
             let fresh: Vec<(f64, f64)> = stale.par_iter().with_min_len(CHUNK).map(|&i| node_sums(i as usize)).collect();
             for (&i, s) in stale.iter().zip(fresh) {
                 sums[i as usize] = s;
             }
+            let mut dirty = vec![false; chunk_sums.len()];
+            for &i in &stale {
+                dirty[i as usize / CHUNK] = true;
+            }
+            for (c, _) in dirty.iter().enumerate().filter(|(_, &d)| d) {
+                chunk_sums[c] = chunk_total(&sums, c);
+            }
         }
-        let (sl, sh) = det_sum(p.len(), |i| sums[i]);
+        let (sl, sh) = chunk_sums.iter().fold((0.0, 0.0), |a, s| (a.0 + s.0, a.1 + s.1));
         let scale = opts.fscale * (sl / sh).sqrt();
         // With a metric: the boundary pushes back on interior nodes through a bar to their
         // mirror image across d = 0, of rest length twice an equilateral height (sqrt 3 L0):
@@ -1230,6 +1282,8 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                 }
             }
         }
+        // Topology follows in index order, whatever the order of the active list.
+        leaving.sort_unstable_by_key(|l| l.0);
         let mut joining: Vec<usize> = snap
             .apexes
             .iter()
@@ -1309,8 +1363,9 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
                 newp[i] = q;
             }
         }
+        joining_internal.sort_unstable();
         // Step control: no triangle may invert; vertices of offending triangles step back.
-        let tris = if full { None } else { Some(snap.triangles_of(&active)) };
+        let tris = if full { None } else { Some(snap.triangles_of(&active, &mut tri_marks)) };
         guard_inversions(&snap, &p, &mut newp, tris.as_deref());
         // Boundary nodes count too once the step is taken: a node still travelling to d = 0
         // (a start cut from a previous mesh) is not settled.
@@ -1322,12 +1377,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             .map(|i| step(i, &newp))
             .reduce(|| 0.0, f64::max);
         let max_move = interior_move.max(boundary_move);
-        moved.iter_mut().for_each(|x| *x = false);
-        stepped_last.iter_mut().for_each(|x| *x = false);
-        for &i in &active {
-            stepped_last[i as usize] = true;
-            moved[i as usize] = step(i as usize, &newp) > SETTLE;
-        }
+        moved = active.iter().copied().filter(|&i| step(i as usize, &newp) > SETTLE).collect();
         for &i in &active {
             p[i as usize] = newp[i as usize];
         }
@@ -1338,6 +1388,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             let i = i as usize;
             p[i].distance(pold[i]) > TTOL * h0 * hv[i]
         });
+        stepped_last = active;
         if far {
             let bad = snap.non_delaunay(&p, &pold, metric.map(|_| &*ctx));
             pold.copy_from_slice(&p);
@@ -1377,15 +1428,21 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             unit = (sl / sh).sqrt();
             munit = unit;
         }
+        let el_s = ti.elapsed().as_secs_f64();
+        if full {
+            full_s += el_s
+        } else {
+            part_s += el_s
+        }
         if topo_changed {
             rebuilds += 1;
+            let tb = Instant::now();
             snap = Snapshot::build(m);
+            build_s += tb.elapsed().as_secs_f64();
             slots.clear();
             p = snap.ids.iter().map(|&v| m.pos(v)).collect();
             pold = p.clone();
             newp = p.clone();
-            moved = vec![true; p.len()];
-            stepped_last = vec![true; p.len()];
             need_full = true;
             hv = vec![1.0; p.len()];
             if metric.is_some() {
@@ -1429,7 +1486,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     }
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         eprintln!(
-            "{rebuilds} snapshot rebuilds in {iter} iterations, {:.1} full sweeps of force work",
+            "{rebuilds} snapshot rebuilds ({build_s:.3} s) in {iter} iterations, {:.1} full sweeps of force work; full steps {full_s:.3} s, partial {part_s:.3} s",
             swept as f64 / p.len().max(1) as f64
         );
     }
@@ -1739,7 +1796,7 @@ fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &TriMesh<DVe
 ///
 /// `tris`: the triangles that can have moved (indices into `snap.tris`); all when `None`.
 fn guard_inversions(snap: &Snapshot, old: &[DVec2], newp: &mut [DVec2], tris: Option<&[u32]>) {
-    let mut factor = vec![1u8; old.len()]; // halvings applied
+    let mut factor: crate::FastMap<usize, u8> = crate::FastMap::default(); // halvings applied
     let all: Vec<u32>;
     let tris = match tris {
         Some(t) => t,
@@ -1769,8 +1826,9 @@ fn guard_inversions(snap: &Snapshot, old: &[DVec2], newp: &mut [DVec2], tris: Op
                 continue;
             }
             touched = true;
-            factor[v] += 1;
-            newp[v] = if factor[v] > 3 { old[v] } else { old[v] + (newp[v] - old[v]) * 0.5 };
+            let f = factor.entry(v).or_insert(1);
+            *f += 1;
+            newp[v] = if *f > 3 { old[v] } else { old[v] + (newp[v] - old[v]) * 0.5 };
         }
         if !touched {
             // Every vertex of every bad triangle is back at its old position: cannot happen
