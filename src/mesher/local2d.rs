@@ -397,15 +397,19 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
         if todo.is_empty() {
             break;
         }
+        let mut new = Vec::with_capacity(todo.len());
         for (a, b) in todo {
             if let Some(h) = m.find_half_edge(a, b) {
                 let mid = (m.pos(a) + m.pos(b)) * 0.5;
                 if let Ok(v) = m.split_edge(h, mid) {
                     m.set_tag(v, VertexTag::Interior);
+                    new.push(v);
                 }
             }
         }
-        ctx.make_delaunay(&mut m);
+        // Only edges of triangles a split changed can have stopped being Delaunay.
+        let stack = star_edges(&m, &new);
+        ctx.legalize(&mut m, stack);
         if m.num_vertices() > cap {
             return Err(Error::Internal(format!(
                 "initial refinement passed {cap} vertices (estimate {estimate:.0} triangles)"
@@ -455,7 +459,12 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
     if let Some(di) = &ctx.internal {
         internal::align(&mut m, di, ctx.geps)?;
     }
-    carve(ctx, &m, 0.0)
+    let t = Instant::now();
+    let out = carve(ctx, &m, 0.0);
+    if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+        eprintln!("carve {:.3} s", t.elapsed().as_secs_f64());
+    }
+    out
 }
 
 /// A face is certainly outside when its approximate distance at the centroid exceeds its
@@ -1502,8 +1511,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     density_control(ctx, m, cands)?;
     ctx.report.flips += ctx.make_delaunay(m);
     settle_boundary(ctx, m)?;
-    if polish_worst(ctx, m)? > 0 {
-        ctx.report.flips += ctx.make_delaunay(m);
+    let polished = polish_worst(ctx, m)?;
+    if !polished.is_empty() {
+        let stack = star_edges(m, &polished);
+        ctx.report.flips += ctx.legalize(m, stack);
     }
     ctx.report.iterations = iter;
     ctx.report.converged = converged;
@@ -1519,9 +1530,9 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
 /// triangle of its star is best. A move is kept only when it raises that minimum, keeps every
 /// triangle of the star positive (exact) and the vertex inside the domain. The truss leaves such
 /// triangles where the boundary spacing and the interior rows meet: its forces even out lengths,
-/// they do not raise a minimum. Returns the number of vertices moved.
-fn polish_worst(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<usize, Error> {
-    let mut moved = 0;
+/// they do not raise a minimum. Returns the vertices moved.
+fn polish_worst(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<Vec<VertexId>, Error> {
+    let mut moved = Vec::new();
     for _ in 0..POLISH_ROUNDS {
         let mut seen = crate::FastSet::default();
         let mut verts: Vec<VertexId> = Vec::new();
@@ -1531,20 +1542,34 @@ fn polish_worst(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<usize, Error> {
                 verts.extend(t.into_iter().filter(|&v| m.tag(v) == VertexTag::Interior && seen.insert(v)));
             }
         }
-        let mut round = 0;
+        let before = moved.len();
         for v in verts {
             if let Some(p) = best_star_position(ctx, m, v)? {
                 if m.relocate(v, p).is_ok() {
-                    round += 1;
+                    moved.push(v);
                 }
             }
         }
-        moved += round;
-        if round == 0 {
+        if moved.len() == before {
             break;
         }
     }
     Ok(moved)
+}
+
+/// The half-edges from each vertex and the link edges opposite it: the edges whose Delaunay
+/// test a change at the vertex can alter.
+fn star_edges(m: &TriMesh<DVec2>, vertices: &[VertexId]) -> Vec<HalfEdgeId> {
+    let mut out = Vec::with_capacity(12 * vertices.len());
+    for &v in vertices {
+        for h in m.outgoing(v) {
+            out.push(h);
+            if m.face_of(h).is_some() {
+                out.push(m.next(h));
+            }
+        }
+    }
+    out
 }
 
 /// The pattern search of [`polish_worst`] for one vertex: `None` when no better place is found.
