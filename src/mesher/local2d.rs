@@ -496,17 +496,21 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
     // vertices are inside; the pressure then pushes the outer row onto the boundary. Boundary
     // vertices of a previous mesh count as inside up to `boundary_slack` relative sizes
     // outside: they are projected onto the moved boundary instead of dropped with their row.
-    let mut inside = vec![false; points.len()];
-    for (i, p) in points.iter().enumerate() {
-        let slack = if boundary_slack > 0.0 && m.is_boundary_vertex(keys[i]) {
-            boundary_slack * ctx.opts.h0 * ctx.h(*p)?
-        } else {
-            0.0
-        };
-        inside[i] = ctx.d(*p)? < ctx.geps + slack;
-    }
+    let on_boundary: Vec<bool> = keys.iter().map(|&k| boundary_slack > 0.0 && m.is_boundary_vertex(k)).collect();
+    let inside: Vec<bool> = points
+        .par_iter()
+        .zip(&on_boundary)
+        .with_min_len(CHUNK)
+        .map(|(p, &b)| {
+            let slack = if b { boundary_slack * ctx.opts.h0 * ctx.h(*p)? } else { 0.0 };
+            Ok(ctx.d(*p)? < ctx.geps + slack)
+        })
+        .collect::<Result<Vec<bool>, Error>>()?;
     let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
     let mut keep: Vec<[usize; 3]> = Vec::with_capacity(tris.len());
+    // Labels are looked up again after the clean-up below; with one subdomain (the usual
+    // case) there is nothing to look up.
+    let one_label = labels.iter().all(|&l| Some(&l) == labels.first());
     let mut keep_label: crate::FastMap<[usize; 3], u32> = crate::FastMap::default();
     for (t, &label) in tris.iter().zip(&labels) {
         // Around fixed points (often corners on d = 0) the centroid decides, so they stay.
@@ -514,7 +518,9 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
         let c = (points[t[0]] + points[t[1]] + points[t[2]]) / 3.0;
         if t.iter().all(|&i| inside[i]) || (touches_fixed && ctx.d(c)? < -ctx.geps) {
             keep.push(*t);
-            keep_label.insert(*t, label);
+            if !one_label {
+                keep_label.insert(*t, label);
+            }
         }
     }
     keep = drop_islands(&keep, &inside);
@@ -557,8 +563,9 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
     }
     let pts: Vec<DVec2> = order.iter().map(|&i| pts[i]).collect();
     let is_fixed: Vec<bool> = order.iter().map(|&i| is_fixed[i]).collect();
+    let label_of = |t: &[usize; 3]| if one_label { labels[0] } else { keep_label[t] };
     let mut tri: Vec<([usize; 3], u32)> =
-        keep.iter().map(|t| ([rank[map[t[0]]], rank[map[t[1]]], rank[map[t[2]]]], keep_label[t])).collect();
+        keep.iter().map(|t| ([rank[map[t[0]]], rank[map[t[1]]], rank[map[t[2]]]], label_of(t))).collect();
     if relayout {
         tri.sort_unstable_by_key(|(t, _)| (t[0].min(t[1]).min(t[2]), *t));
     }
@@ -665,20 +672,19 @@ fn restore_fixed(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
 /// island apart from the mesh, which the boundary rows would later slide over. The fixed
 /// point is then restored onto the mesh by [`restore_fixed`].
 fn drop_islands(tris: &[[usize; 3]], inside: &[bool]) -> Vec<[usize; 3]> {
-    // Triangles sharing an edge are joined (union-find over the sorted edge list: no map of
-    // small vectors, which cost most of the carving on large starts).
-    let mut edges: Vec<(usize, usize, usize)> = Vec::with_capacity(tris.len() * 3);
+    // Triangles sharing an edge are joined (union-find; the triangles on an edge a-b are found
+    // among the few around a: no map and no sort, which cost most of the carving on large
+    // starts).
+    let around = VertexTriangles::new(inside.len(), tris);
+    let mut sets = crate::topology::DisjointSets::new(tris.len());
     for (t, tri) in tris.iter().enumerate() {
         for k in 0..3 {
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            edges.push((a.min(b), a.max(b), t));
-        }
-    }
-    edges.sort_unstable();
-    let mut sets = crate::topology::DisjointSets::new(tris.len());
-    for w in edges.windows(2) {
-        if (w[0].0, w[0].1) == (w[1].0, w[1].1) {
-            sets.join(w[0].2, w[1].2);
+            for u in around.of(a) {
+                if u > t && tris[u].contains(&b) {
+                    sets.join(t, u);
+                }
+            }
         }
     }
     let mut core = vec![false; tris.len()];
@@ -698,24 +704,53 @@ fn drop_islands(tris: &[[usize; 3]], inside: &[bool]) -> Vec<[usize; 3]> {
 
 /// Vertices with more than one boundary edge leaving them in a triangle list.
 pub(crate) fn pinched_vertices(n: usize, tris: &[[usize; 3]]) -> Vec<usize> {
-    let mut dir: crate::FastSet<(usize, usize)> =
-        crate::FastSet::with_capacity_and_hasher(tris.len() * 3, Default::default());
-    for t in tris {
-        for k in 0..3 {
-            dir.insert((t[k], t[(k + 1) % 3]));
-        }
-    }
+    let around = VertexTriangles::new(n, tris);
+    // Whether some triangle holds the directed edge a -> b (it is then among a's triangles).
+    let has = |a: usize, b: usize| around.of(a).any(|u| (0..3).any(|k| tris[u][k] == a && tris[u][(k + 1) % 3] == b));
     let mut count = vec![0u8; n];
     for t in tris {
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
-            if !dir.contains(&(b, a)) {
+            if !has(b, a) {
                 // b -> a is a boundary half-edge leaving b.
                 count[b] = count[b].saturating_add(1);
             }
         }
     }
     (0..n).filter(|&i| count[i] > 1).collect()
+}
+
+/// The triangles around each vertex of a triangle list (CSR).
+struct VertexTriangles {
+    start: Vec<u32>,
+    list: Vec<u32>,
+}
+
+impl VertexTriangles {
+    fn new(n: usize, tris: &[[usize; 3]]) -> VertexTriangles {
+        let mut start = vec![0u32; n + 1];
+        for t in tris {
+            for &v in t {
+                start[v + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        let mut cursor: Vec<u32> = start[..n].to_vec();
+        let mut list = vec![0u32; 3 * tris.len()];
+        for (k, t) in tris.iter().enumerate() {
+            for &v in t {
+                list[cursor[v] as usize] = k as u32;
+                cursor[v] += 1;
+            }
+        }
+        VertexTriangles { start, list }
+    }
+    /// The triangles (indices) holding v.
+    fn of(&self, v: usize) -> impl Iterator<Item = usize> + '_ {
+        self.list[self.start[v] as usize..self.start[v + 1] as usize].iter().map(|&t| t as usize)
+    }
 }
 
 /// For each pinched vertex keeps only its largest fan of triangles.
@@ -821,24 +856,31 @@ impl Snapshot {
         // One subdomain (the usual case): no face record needs reading per edge.
         let first_label = m.face_ids().next().map(|f| m.face(f).label);
         let one_label = m.face_ids().all(|f| Some(m.face(f).label) == first_label);
-        for h in m.edge_ids() {
-            let t = m.twin(h);
-            let (a, b) = (index[m.origin(h)], index[m.origin(t)]);
+        // The records of each edge's two sides are read in parallel: this pass waits on memory
+        // (a twin lies wherever its face was created).
+        let hs: Vec<HalfEdgeId> = m.edge_ids().collect();
+        let rows: Vec<(u32, u32, u8, [u32; 2])> = hs
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|&h| {
+                let t = m.twin(h);
+                let (a, b) = (index[m.origin(h)], index[m.origin(t)]);
+                match (m.face_of(h), m.face_of(t)) {
+                    (Some(f1), Some(f2)) if one_label || m.face(f1).label == m.face(f2).label => {
+                        (a, b, EDGE_INTERIOR, [index[m.origin(m.prev(h))], index[m.origin(m.prev(t))]])
+                    }
+                    (Some(_), Some(_)) => (a, b, EDGE_INTERFACE, [0, 0]),
+                    _ => (a, b, EDGE_BOUNDARY, [0, 0]),
+                }
+            })
+            .collect();
+        for (&(a, b, kind, [c, d]), &h) in rows.iter().zip(&hs) {
             deg[a as usize] += 1;
             deg[b as usize] += 1;
-            match (m.face_of(h), m.face_of(t)) {
-                (Some(f1), Some(f2)) => {
-                    if one_label || m.face(f1).label == m.face(f2).label {
-                        edges.push((a, b, h, EDGE_INTERIOR));
-                        let c = index[m.origin(m.prev(h))];
-                        let d = index[m.origin(m.prev(t))];
-                        quads.push([a, b, c, d]);
-                        quad_edges.push(h);
-                    } else {
-                        edges.push((a, b, h, EDGE_INTERFACE));
-                    }
-                }
-                _ => edges.push((a, b, h, EDGE_BOUNDARY)),
+            edges.push((a, b, h, kind));
+            if kind == EDGE_INTERIOR {
+                quads.push([a, b, c, d]);
+                quad_edges.push(h);
             }
         }
         let mut adj_start = Vec::with_capacity(n + 1);
@@ -856,12 +898,9 @@ impl Snapshot {
             adj[cursor[b as usize] as usize] = a;
             cursor[b as usize] += 1;
         }
-        let mut tris = Vec::with_capacity(m.num_faces());
-        let mut tri_faces = Vec::with_capacity(m.num_faces());
-        for f in m.face_ids() {
-            tris.push(m.face_vertices(f).map(|v| index[v]));
-            tri_faces.push(f);
-        }
+        let tri_faces: Vec<crate::topology::FaceId> = m.face_ids().collect();
+        let tris: Vec<[u32; 3]> =
+            tri_faces.par_iter().with_min_len(CHUNK).map(|&f| m.face_vertices(f).map(|v| index[v])).collect();
         let mut vt_start = vec![0u32; n + 1];
         for t in &tris {
             for &v in t {
