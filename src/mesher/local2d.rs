@@ -311,6 +311,19 @@ pub(crate) fn run_moving(
         None => Vec::new(),
     };
     equilibrium(&mut ctx, &mut mesh)?;
+    if ctx.metric.is_none() && ctx.internal.is_none() {
+        let geo = super::polish2d::Geometry {
+            h: &|p| ctx.h(p),
+            project: &|p| ctx.project(p),
+            fscale: opts.fscale,
+            dt: opts.deltat,
+        };
+        let changes = super::polish2d::search(&mut mesh, &geo)?;
+        let kept = super::polish2d::polish(&mut mesh, &|p| ctx.h(p))?;
+        if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+            eprintln!("polish: {changes} local changes, {kept} sweeps");
+        }
+    }
     for v in frozen {
         if mesh.contains_vertex(v) {
             let tag = if mesh.is_boundary_vertex(v) { VertexTag::Boundary } else { VertexTag::Interior };

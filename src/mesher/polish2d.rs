@@ -1,0 +1,390 @@
+//! Final polish of a 2-D mesh at force equilibrium: interior nodes move, one at a time, towards
+//! the apices that would make each triangle of their star equilateral, and a move is kept only
+//! when it raises the mean quality without raising the size deviation (seed section 2.7's
+//! measure) or lowering the minimum quality. The truss equalises bar lengths, not shapes: near
+//! valence defects and along the boundary its equilibrium leaves shape quality on the table,
+//! and earlier polishes that ignored size traded it for size deviation.
+
+use crate::topology::{FaceId, TriMesh, VertexId, VertexTag};
+use crate::Error;
+use glam::DVec2;
+use slotmap::SecondaryMap;
+
+/// Sweeps over the interior nodes at most.
+const SWEEPS: usize = 30;
+/// A sweep that gains less than this in summed quality per node ends the polish.
+const SWEEP_GAIN: f64 = 1e-7;
+/// Step fractions tried towards the target, largest first.
+const STEPS: [f64; 5] = [1.0, 0.5, 0.25, 0.125, 0.0625];
+
+/// Quality and relative circumradius of each triangle, and their sums.
+struct Stats {
+    q: SecondaryMap<FaceId, f64>,
+    s: SecondaryMap<FaceId, f64>,
+    sq: f64,
+    s1: f64,
+    s2: f64,
+    n: f64,
+}
+
+impl Stats {
+    fn of(m: &TriMesh<DVec2>, h: &dyn Fn(DVec2) -> Result<f64, Error>) -> Result<Stats, Error> {
+        let mut st = Stats {
+            q: SecondaryMap::new(),
+            s: SecondaryMap::new(),
+            sq: 0.0,
+            s1: 0.0,
+            s2: 0.0,
+            n: m.num_faces() as f64,
+        };
+        for f in m.face_ids() {
+            let t = m.face_points(f);
+            let (q, s) = (crate::quality::triangle_q(t), rel_radius(t, h)?);
+            st.q.insert(f, q);
+            st.s.insert(f, s);
+            st.sq += q;
+            st.s1 += s;
+            st.s2 += s * s;
+        }
+        Ok(st)
+    }
+    /// std / mean of the relative circumradii with the sums changed by (d1, d2).
+    fn dev_with(&self, d1: f64, d2: f64) -> f64 {
+        let mean = (self.s1 + d1) / self.n;
+        let var = ((self.s2 + d2) / self.n - mean * mean).max(0.0);
+        var.sqrt() / mean
+    }
+}
+
+/// Circumradius over the local size at the centroid (the size deviation's sample).
+fn rel_radius(t: [DVec2; 3], h: &dyn Fn(DVec2) -> Result<f64, Error>) -> Result<f64, Error> {
+    let r = crate::quality::circumradius_from_lengths(t[1].distance(t[2]), t[2].distance(t[0]), t[0].distance(t[1]));
+    Ok(r / h((t[0] + t[1] + t[2]) / 3.0)?)
+}
+
+/// The mean of the apices that make each triangle of `v`'s star equilateral on its far edge.
+fn equilateral_target(m: &TriMesh<DVec2>, v: VertexId) -> DVec2 {
+    let mut sum = DVec2::ZERO;
+    let mut k = 0.0;
+    for x in m.outgoing(v) {
+        if m.face_of(x).is_none() {
+            continue;
+        }
+        let (a, b) = (m.pos(m.dest(x)), m.pos(m.dest(m.next(x))));
+        // v is left of a -> b (counter-clockwise triangle v, a, b).
+        sum += (a + b) * 0.5 + (b - a).perp() * (0.75f64).sqrt();
+        k += 1.0;
+    }
+    sum / k
+}
+
+/// Polishes the interior nodes of `m` in place (see the module notes); `h` is the relative
+/// local size. Returns the number of moves kept.
+pub(crate) fn polish(m: &mut TriMesh<DVec2>, h: &dyn Fn(DVec2) -> Result<f64, Error>) -> Result<usize, Error> {
+    let mut st = Stats::of(m, h)?;
+    if st.n == 0.0 {
+        return Ok(0);
+    }
+    let budget = st.dev_with(0.0, 0.0);
+    let q_floor = st.q.values().copied().fold(f64::INFINITY, f64::min);
+    let verts: Vec<VertexId> =
+        m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Interior && !m.is_boundary_vertex(v)).collect();
+    let mut kept = 0;
+    for _ in 0..SWEEPS {
+        let mut gain = 0.0;
+        for &v in &verts {
+            gain += move_node(m, &mut st, v, budget, q_floor, h)?;
+        }
+        kept += 1;
+        if gain < SWEEP_GAIN * verts.len() as f64 {
+            break;
+        }
+        // Fresh sums: the running updates drift.
+        st = Stats::of(m, h)?;
+    }
+    Ok(kept)
+}
+
+/// Tries steps of `v` towards its equilateral target; keeps the first that passes. Returns
+/// the gain in summed quality.
+fn move_node(
+    m: &mut TriMesh<DVec2>,
+    st: &mut Stats,
+    v: VertexId,
+    budget: f64,
+    q_floor: f64,
+    h: &dyn Fn(DVec2) -> Result<f64, Error>,
+) -> Result<f64, Error> {
+    let faces = m.vertex_faces(v);
+    let old = m.pos(v);
+    let target = equilateral_target(m, v);
+    let old_min = faces.iter().map(|&f| st.q[f]).fold(f64::INFINITY, f64::min);
+    let floor = old_min.min(q_floor.max(0.0));
+    for t in STEPS {
+        let x = old + (target - old) * t;
+        if m.relocate(v, x).is_err() {
+            continue;
+        }
+        let (mut dq, mut d1, mut d2, mut qmin) = (0.0, 0.0, 0.0, f64::INFINITY);
+        let mut new = Vec::with_capacity(faces.len());
+        for &f in &faces {
+            let tp = m.face_points(f);
+            let (q, s) = (crate::quality::triangle_q(tp), rel_radius(tp, h)?);
+            dq += q - st.q[f];
+            d1 += s - st.s[f];
+            d2 += s * s - st.s[f] * st.s[f];
+            qmin = qmin.min(q);
+            new.push((f, q, s));
+        }
+        if dq > 0.0 && qmin >= floor && st.dev_with(d1, d2) <= budget {
+            for (f, q, s) in new {
+                st.q[f] = q;
+                st.s[f] = s;
+            }
+            st.sq += dq;
+            st.s1 += d1;
+            st.s2 += d2;
+            return Ok(dq);
+        }
+        m.set_pos_unchecked(v, old);
+    }
+    Ok(0.0)
+}
+
+// ============================ local topological search ============================
+
+/// What the topological search needs of the geometry: the relative size, the projection onto
+/// the boundary, and the truss's force law (seed eq. 2.6 with these Fscale and time step).
+pub(crate) struct Geometry<'a> {
+    pub h: &'a dyn Fn(DVec2) -> Result<f64, Error>,
+    pub project: &'a dyn Fn(DVec2) -> Result<Option<DVec2>, Error>,
+    pub fscale: f64,
+    pub dt: f64,
+}
+
+/// Triangles below this quality have their edges tried by the search.
+const Q_TRY: f64 = 0.9;
+/// Rings of nodes around a change that the re-equilibration moves.
+const RELAX_RINGS: usize = 3;
+/// Force iterations of the re-equilibration.
+const RELAX_ITERS: usize = 40;
+/// Meshes with more triangles are not searched: every trial copies and measures the whole
+/// mesh, and on fine meshes the poor triangles along the boundary weigh little in the mean.
+const SEARCH_MAX_FACES: usize = 20_000;
+/// Rounds of the search (each tries every candidate once).
+const SEARCH_ROUNDS: usize = 4;
+
+/// Mean quality, size deviation and minimum quality of a mesh.
+fn measure(m: &TriMesh<DVec2>, h: &dyn Fn(DVec2) -> Result<f64, Error>) -> Result<(f64, f64, f64), Error> {
+    let st = Stats::of(m, h)?;
+    let qmin = st.q.values().copied().fold(f64::INFINITY, f64::min);
+    Ok((st.sq / st.n, st.dev_with(0.0, 0.0), qmin))
+}
+
+/// Local changes (collapse, split, flip of the edges of poor triangles), each followed by a
+/// short re-equilibration of the truss around it, kept only when the mean quality rises while
+/// the size deviation stays at most what it was and the minimum quality does not fall.
+/// Returns the number of changes kept.
+pub(crate) fn search(m: &mut TriMesh<DVec2>, g: &Geometry) -> Result<usize, Error> {
+    let (mut best, budget, floor) = measure(m, g.h)?;
+    let mut kept = 0;
+    if m.num_faces() > SEARCH_MAX_FACES {
+        return Ok(0);
+    }
+    for _ in 0..SEARCH_ROUNDS {
+        let scale = bar_scale(m, g)?;
+        let mut round = 0;
+        let mut edges: Vec<(f64, VertexId, VertexId)> = Vec::new();
+        for f in m.face_ids() {
+            let q = m.face_quality(f);
+            if q < Q_TRY {
+                for x in m.face_half_edges(f) {
+                    edges.push((q, m.origin(x), m.dest(x)));
+                }
+            }
+        }
+        edges.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (_, a, b) in edges {
+            for op in [Op::Collapse, Op::Split, Op::Flip] {
+                let Some(x) = (if m.contains_vertex(a) { m.find_half_edge(a, b) } else { None }) else { break };
+                let mut trial = m.clone();
+                let Some(seeds) = apply(&mut trial, g, x, op)? else { continue };
+                relax(&mut trial, g, &seeds, scale)?;
+                let (q, dev, qmin) = measure(&trial, g.h)?;
+                if q > best + 1e-7 && dev <= budget && qmin >= floor {
+                    *m = trial;
+                    best = q;
+                    round += 1;
+                    break;
+                }
+            }
+        }
+        kept += round;
+        if round == 0 {
+            break;
+        }
+    }
+    Ok(kept)
+}
+
+#[derive(Clone, Copy)]
+enum Op {
+    Collapse,
+    Split,
+    Flip,
+}
+
+/// Applies `op` to the edge of `x`; returns the vertices to relax around, or `None` when the
+/// change is not allowed.
+fn apply(
+    m: &mut TriMesh<DVec2>,
+    g: &Geometry,
+    x: crate::topology::HalfEdgeId,
+    op: Op,
+) -> Result<Option<Vec<VertexId>>, Error> {
+    let (a, b) = (m.origin(x), m.dest(x));
+    let (pa, pb) = (m.pos(a), m.pos(b));
+    let boundary = m.is_boundary_edge(x);
+    match op {
+        Op::Flip => {
+            let c = m.origin(m.prev(x));
+            let d = m.origin(m.prev(m.twin(x)));
+            Ok(m.flip(x).is_ok().then(|| vec![a, b, c, d]))
+        }
+        Op::Split => {
+            let mut mid = (pa + pb) * 0.5;
+            if boundary {
+                match (g.project)(mid)? {
+                    Some(q) => mid = q,
+                    None => return Ok(None),
+                }
+            }
+            match m.split_edge(x, mid) {
+                Ok(v) => {
+                    legalize_around(m, v);
+                    Ok(Some(vec![v]))
+                }
+                Err(_) => Ok(None),
+            }
+        }
+        Op::Collapse => {
+            use VertexTag::{Boundary, Fixed, Interior};
+            let (ta, tb) = (m.tag(a), m.tag(b));
+            let try_ = match (ta, tb) {
+                (Interior, Interior) => Some((x, (pa + pb) * 0.5)),
+                (Interior, _) => Some((x, pb)),
+                (_, Interior) => Some((m.twin(x), pa)),
+                (Boundary, Boundary) if boundary => (g.project)((pa + pb) * 0.5)?.map(|q| (x, q)),
+                (Boundary, Fixed) if boundary => Some((x, pb)),
+                (Fixed, Boundary) if boundary => Some((m.twin(x), pa)),
+                _ => None,
+            };
+            let Some((e, pos)) = try_ else { return Ok(None) };
+            match m.collapse(e, pos) {
+                Ok(v) => {
+                    legalize_around(m, v);
+                    Ok(Some(vec![v]))
+                }
+                Err(_) => Ok(None),
+            }
+        }
+    }
+}
+
+/// Delaunay flips from the edges around `v` and opposite it.
+fn legalize_around(m: &mut TriMesh<DVec2>, v: VertexId) {
+    let mut stack = Vec::new();
+    for h in m.outgoing(v) {
+        stack.push(h);
+        if m.face_of(h).is_some() {
+            stack.push(m.next(h));
+        }
+    }
+    m.legalize(stack);
+}
+
+/// Fscale sqrt(sum L^2 / sum h_bar^2) over the edges of `m` (seed eq. 2.6): the rest length
+/// of a bar is this times its mean relative size.
+fn bar_scale(m: &TriMesh<DVec2>, g: &Geometry) -> Result<f64, Error> {
+    let (mut sl, mut sh) = (0.0, 0.0);
+    for e in m.edge_ids() {
+        let (a, b) = (m.pos(m.origin(e)), m.pos(m.dest(e)));
+        let hb = 0.5 * ((g.h)(a)? + (g.h)(b)?);
+        sl += a.distance_squared(b);
+        sh += hb * hb;
+    }
+    Ok(g.fscale * (sl / sh).sqrt())
+}
+
+/// The vertices within `rings` edges of `seeds`, in a deterministic order.
+fn rings_around(m: &TriMesh<DVec2>, seeds: &[VertexId], rings: usize) -> Vec<VertexId> {
+    let mut seen: SecondaryMap<VertexId, ()> = SecondaryMap::new();
+    let mut out: Vec<VertexId> = Vec::new();
+    for &s in seeds {
+        if m.contains_vertex(s) && seen.insert(s, ()).is_none() {
+            out.push(s);
+        }
+    }
+    let mut start = 0;
+    for _ in 0..rings {
+        let end = out.len();
+        for i in start..end {
+            for w in m.neighbours(out[i]) {
+                if seen.insert(w, ()).is_none() {
+                    out.push(w);
+                }
+            }
+        }
+        start = end;
+    }
+    out
+}
+
+/// Force iterations of the truss on the nodes near `seeds` (the rest held): bars push with
+/// (L0 - L) / L where shorter than L0 = Fscale h_bar sqrt(sum L^2 / sum h_bar^2) (seed eq. 2.6,
+/// the sums over the whole mesh), boundary nodes projected back onto d = 0 after each step, and
+/// every step checked exactly against inverting a triangle. Ends with Delaunay flips there.
+/// `scale` is Fscale sqrt(sum L^2 / sum h_bar^2) of the mesh (see [`bar_scale`]).
+fn relax(m: &mut TriMesh<DVec2>, g: &Geometry, seeds: &[VertexId], scale: f64) -> Result<(), Error> {
+    let nodes: Vec<VertexId> = rings_around(m, seeds, RELAX_RINGS)
+        .into_iter()
+        .filter(|&v| matches!(m.tag(v), VertexTag::Interior | VertexTag::Boundary))
+        .collect();
+    for _ in 0..RELAX_ITERS {
+        let mut steps = Vec::with_capacity(nodes.len());
+        for &v in &nodes {
+            let pv = m.pos(v);
+            let hv = (g.h)(pv)?;
+            let mut f = DVec2::ZERO;
+            for w in m.neighbours(v) {
+                let d = pv - m.pos(w);
+                let l = d.length();
+                let l0 = 0.5 * (hv + (g.h)(m.pos(w))?) * scale;
+                if l > 0.0 && l0 > l {
+                    f += d * ((l0 - l) / l);
+                }
+            }
+            steps.push(pv + g.dt * f);
+        }
+        for (&v, mut x) in nodes.iter().zip(steps) {
+            if m.tag(v) == VertexTag::Boundary && m.is_boundary_vertex(v) {
+                match (g.project)(x)? {
+                    Some(q) => x = q,
+                    None => continue,
+                }
+            }
+            let old = m.pos(v);
+            for t in [1.0, 0.5, 0.25] {
+                if m.relocate(v, old + (x - old) * t).is_ok() {
+                    break;
+                }
+            }
+        }
+    }
+    let mut stack = Vec::new();
+    for &v in &nodes {
+        stack.extend(m.outgoing(v));
+    }
+    m.legalize(stack);
+    Ok(())
+}
