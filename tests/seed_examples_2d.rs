@@ -98,7 +98,6 @@ fn ex2_circle_with_hole() {
     check("ex2", Some(0.7));
 }
 #[test]
-#[ignore = "q mean 0.9656 (target 0.97); q min 0.765, size deviation 3.2% pass. The local search after equilibrium finds no change that raises q mean without raising the size deviation"]
 fn ex3a_square_with_hole() {
     check("ex3a", Some(0.7));
 }

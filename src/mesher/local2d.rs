@@ -318,7 +318,7 @@ pub(crate) fn run_moving(
             fscale: opts.fscale,
             dt: opts.deltat,
         };
-        let changes = super::polish2d::search(&mut mesh, &geo)?;
+        let changes = if start.is_none() { super::polish2d::search(&mut mesh, &geo)? } else { 0 };
         let kept = super::polish2d::polish(&mut mesh, &|p| ctx.h(p))?;
         if std::env::var_os("TRUSSMESH_TRACE").is_some() {
             eprintln!("polish: {changes} local changes, {kept} sweeps");

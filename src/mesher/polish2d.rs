@@ -163,59 +163,130 @@ pub(crate) struct Geometry<'a> {
 }
 
 /// Triangles below this quality have their edges tried by the search.
-const Q_TRY: f64 = 0.9;
+const Q_TRY: f64 = 0.95;
 /// Rings of nodes around a change that the re-equilibration moves.
 const RELAX_RINGS: usize = 3;
-/// Force iterations of the re-equilibration.
+/// Force iterations of the re-equilibration at most.
 const RELAX_ITERS: usize = 40;
+/// The re-equilibration stops once no node moves more than this many rest lengths in a step.
+const RELAX_TOL: f64 = 1e-3;
 /// Meshes with more triangles are not searched: every trial copies and measures the whole
 /// mesh, and on fine meshes the poor triangles along the boundary weigh little in the mean.
 const SEARCH_MAX_FACES: usize = 20_000;
 /// Rounds of the search (each tries every candidate once).
-const SEARCH_ROUNDS: usize = 4;
+const SEARCH_ROUNDS: usize = 8;
 
-/// Mean quality, size deviation and minimum quality of a mesh.
-fn measure(m: &TriMesh<DVec2>, h: &dyn Fn(DVec2) -> Result<f64, Error>) -> Result<(f64, f64, f64), Error> {
-    let st = Stats::of(m, h)?;
-    let qmin = st.q.values().copied().fold(f64::INFINITY, f64::min);
-    Ok((st.sq / st.n, st.dev_with(0.0, 0.0), qmin))
+/// Sums over some triangles: count, quality, relative circumradius and its square, and the
+/// smallest quality.
+#[derive(Clone, Copy, Default)]
+struct Sums {
+    n: f64,
+    sq: f64,
+    s1: f64,
+    s2: f64,
+    qmin: f64,
+}
+
+impl Sums {
+    /// Over the triangles with a corner in `verts` (each once).
+    fn around(m: &TriMesh<DVec2>, verts: &[VertexId], h: &dyn Fn(DVec2) -> Result<f64, Error>) -> Result<Sums, Error> {
+        let mut seen: SecondaryMap<FaceId, ()> = SecondaryMap::new();
+        let mut out = Sums { qmin: f64::INFINITY, ..Sums::default() };
+        for &v in verts {
+            if !m.contains_vertex(v) {
+                continue;
+            }
+            for f in m.vertex_faces(v) {
+                if seen.insert(f, ()).is_none() {
+                    let t = m.face_points(f);
+                    let (q, r) = (crate::quality::triangle_q(t), rel_radius(t, h)?);
+                    out.n += 1.0;
+                    out.sq += q;
+                    out.s1 += r;
+                    out.s2 += r * r;
+                    out.qmin = out.qmin.min(q);
+                }
+            }
+        }
+        Ok(out)
+    }
+    /// Over the whole mesh.
+    fn of(m: &TriMesh<DVec2>, h: &dyn Fn(DVec2) -> Result<f64, Error>) -> Result<Sums, Error> {
+        let st = Stats::of(m, h)?;
+        let qmin = st.q.values().copied().fold(f64::INFINITY, f64::min);
+        Ok(Sums { n: st.n, sq: st.sq, s1: st.s1, s2: st.s2, qmin })
+    }
+    fn q_mean(&self) -> f64 {
+        self.sq / self.n
+    }
+    fn dev(&self) -> f64 {
+        let mean = self.s1 / self.n;
+        ((self.s2 / self.n - mean * mean).max(0.0)).sqrt() / mean
+    }
+    /// These sums with the triangles of `old` replaced by those of `new`.
+    fn replace(&self, old: &Sums, new: &Sums) -> Sums {
+        Sums {
+            n: self.n - old.n + new.n,
+            sq: self.sq - old.sq + new.sq,
+            s1: self.s1 - old.s1 + new.s1,
+            s2: self.s2 - old.s2 + new.s2,
+            qmin: new.qmin,
+        }
+    }
 }
 
 /// Local changes (collapse, split, flip of the edges of poor triangles), each followed by a
 /// short re-equilibration of the truss around it, kept only when the mean quality rises while
 /// the size deviation stays at most what it was and the minimum quality does not fall.
+/// A trial is measured on the triangles near it (those farther away are untouched); the
+/// result is measured whole, and the search undone if it broke a condition after all.
 /// Returns the number of changes kept.
 pub(crate) fn search(m: &mut TriMesh<DVec2>, g: &Geometry) -> Result<usize, Error> {
-    let (mut best, budget, floor) = measure(m, g.h)?;
-    let mut kept = 0;
-    if m.num_faces() > SEARCH_MAX_FACES {
+    if m.num_faces() > SEARCH_MAX_FACES || m.num_faces() == 0 {
         return Ok(0);
     }
+    let start = Sums::of(m, g.h)?;
+    let (budget, floor) = (start.dev(), start.qmin);
+    let original = m.clone();
+    let mut kept = 0;
+    // Vertices near a kept change: later rounds try only edges there (None: every edge).
+    let mut dirty: Option<SecondaryMap<VertexId, ()>> = None;
     for _ in 0..SEARCH_ROUNDS {
         let scale = bar_scale(m, g)?;
+        let mut cur = Sums::of(m, g.h)?;
         let mut round = 0;
-        let mut edges: Vec<(f64, VertexId, VertexId)> = Vec::new();
-        for f in m.face_ids() {
-            let q = m.face_quality(f);
-            if q < Q_TRY {
-                for x in m.face_half_edges(f) {
-                    edges.push((q, m.origin(x), m.dest(x)));
-                }
-            }
-        }
-        edges.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for (_, a, b) in edges {
+        let edges = candidate_edges(m, dirty.as_ref());
+        let mut touched: SecondaryMap<VertexId, ()> = SecondaryMap::new();
+        for (a, b) in edges {
+            // The best of the three changes of this edge that passes.
+            let mut best: Option<(Sums, TriMesh<DVec2>, Vec<VertexId>)> = None;
             for op in [Op::Collapse, Op::Split, Op::Flip] {
                 let Some(x) = (if m.contains_vertex(a) { m.find_half_edge(a, b) } else { None }) else { break };
+                let region = rings_around(m, &[a, b], RELAX_RINGS + 3);
+                let before = Sums::around(m, &region, g.h)?;
                 let mut trial = m.clone();
                 let Some(seeds) = apply(&mut trial, g, x, op)? else { continue };
                 relax(&mut trial, g, &seeds, scale)?;
-                let (q, dev, qmin) = measure(&trial, g.h)?;
-                if q > best + 1e-7 && dev <= budget && qmin >= floor {
-                    *m = trial;
-                    best = q;
-                    round += 1;
-                    break;
+                let mut near: Vec<VertexId> = region.iter().copied().filter(|&v| trial.contains_vertex(v)).collect();
+                near.extend(seeds.iter().copied().filter(|&v| trial.contains_vertex(v)));
+                let after = Sums::around(&trial, &near, g.h)?;
+                // Triangles outside the region must be the same in number, or the measure is whole.
+                let next = if m.num_faces() as f64 - before.n == trial.num_faces() as f64 - after.n {
+                    cur.replace(&before, &after)
+                } else {
+                    Sums::of(&trial, g.h)?
+                };
+                let bar = best.as_ref().map_or(cur.q_mean() + 1e-7, |b| b.0.q_mean());
+                if next.q_mean() > bar && next.dev() <= budget && next.qmin >= floor {
+                    best = Some((next, trial, near));
+                }
+            }
+            if let Some((next, trial, near)) = best {
+                *m = trial;
+                cur = next;
+                round += 1;
+                for v in near {
+                    touched.insert(v, ());
                 }
             }
         }
@@ -223,8 +294,35 @@ pub(crate) fn search(m: &mut TriMesh<DVec2>, g: &Geometry) -> Result<usize, Erro
         if round == 0 {
             break;
         }
+        dirty = Some(touched);
+    }
+    let end = Sums::of(m, g.h)?;
+    if end.q_mean() < start.q_mean() || end.dev() > budget || end.qmin < floor {
+        *m = original;
+        return Ok(0);
     }
     Ok(kept)
+}
+
+/// The edges of triangles below Q_TRY, worst triangle first, and only those with an end in
+/// `dirty` when given.
+fn candidate_edges(m: &TriMesh<DVec2>, dirty: Option<&SecondaryMap<VertexId, ()>>) -> Vec<(VertexId, VertexId)> {
+    let mut edges: Vec<(f64, VertexId, VertexId)> = Vec::new();
+    for f in m.face_ids() {
+        let q = m.face_quality(f);
+        if q < Q_TRY {
+            for x in m.face_half_edges(f) {
+                let (a, b) = (m.origin(x), m.dest(x));
+                if dirty.map_or(true, |d| d.contains_key(a) || d.contains_key(b)) {
+                    edges.push((q, a, b));
+                }
+            }
+        }
+    }
+    // Stable sort: equal qualities keep the mesh's face order (deterministic). An edge of two
+    // poor triangles comes twice: the first try may have changed its neighbourhood.
+    edges.sort_by(|x, y| x.0.total_cmp(&y.0));
+    edges.into_iter().map(|(_, a, b)| (a, b)).collect()
 }
 
 #[derive(Clone, Copy)]
@@ -350,35 +448,60 @@ fn relax(m: &mut TriMesh<DVec2>, g: &Geometry, seeds: &[VertexId], scale: f64) -
         .into_iter()
         .filter(|&v| matches!(m.tag(v), VertexTag::Interior | VertexTag::Boundary))
         .collect();
+    // The topology holds during the iterations: neighbours and boundary flags once.
+    let nbrs: Vec<smallvec::SmallVec<[VertexId; 8]>> = nodes.iter().map(|&v| m.neighbours(v)).collect();
+    let on_boundary: Vec<bool> =
+        nodes.iter().map(|&v| m.tag(v) == VertexTag::Boundary && m.is_boundary_vertex(v)).collect();
+    // The relative size at each node and its neighbours where they start: the nodes move a
+    // fraction of a bar.
+    let mut hs: SecondaryMap<VertexId, f64> = SecondaryMap::new();
+    for (k, &v) in nodes.iter().enumerate() {
+        for &w in std::iter::once(&v).chain(nbrs[k].iter()) {
+            if !hs.contains_key(w) {
+                hs.insert(w, (g.h)(m.pos(w))?);
+            }
+        }
+    }
+    let mut steps = Vec::with_capacity(nodes.len());
     for _ in 0..RELAX_ITERS {
-        let mut steps = Vec::with_capacity(nodes.len());
-        for &v in &nodes {
+        steps.clear();
+        for (k, &v) in nodes.iter().enumerate() {
             let pv = m.pos(v);
-            let hv = (g.h)(pv)?;
+            let hv = hs[v];
             let mut f = DVec2::ZERO;
-            for w in m.neighbours(v) {
+            for &w in &nbrs[k] {
                 let d = pv - m.pos(w);
                 let l = d.length();
-                let l0 = 0.5 * (hv + (g.h)(m.pos(w))?) * scale;
+                let l0 = 0.5 * (hv + hs[w]) * scale;
                 if l > 0.0 && l0 > l {
                     f += d * ((l0 - l) / l);
                 }
             }
             steps.push(pv + g.dt * f);
         }
-        for (&v, mut x) in nodes.iter().zip(steps) {
-            if m.tag(v) == VertexTag::Boundary && m.is_boundary_vertex(v) {
+        let mut moved = 0.0f64;
+        for (k, &v) in nodes.iter().enumerate() {
+            let old = m.pos(v);
+            let mut x = steps[k];
+            if x == old {
+                continue;
+            }
+            if on_boundary[k] {
                 match (g.project)(x)? {
                     Some(q) => x = q,
                     None => continue,
                 }
             }
-            let old = m.pos(v);
             for t in [1.0, 0.5, 0.25] {
-                if m.relocate(v, old + (x - old) * t).is_ok() {
+                let y = old + (x - old) * t;
+                if m.relocate(v, y).is_ok() {
+                    moved = moved.max(y.distance(old) / (scale * hs[v]));
                     break;
                 }
             }
+        }
+        if moved < RELAX_TOL {
+            break;
         }
     }
     let mut stack = Vec::new();
