@@ -38,5 +38,3 @@ pub struct ReadmeDoctests;
 /// foldhash's fast hasher with a fixed seed. The standard SipHash costs several times more per
 /// lookup there; the fixed seed keeps every run identical (nothing relies on iteration order).
 pub(crate) type FastMap<K, V> = std::collections::HashMap<K, V, foldhash::fast::FixedState>;
-/// See [`FastMap`].
-pub(crate) type FastSet<K> = std::collections::HashSet<K, foldhash::fast::FixedState>;

@@ -82,7 +82,6 @@ fn check(name: &str, min_q: Option<f64>) {
 }
 
 #[test]
-#[ignore = "h0 = 0.4 leaves 21 nodes: q mean 0.84, q min 0.51, size deviation 13.5% (target out of reach at this size)"]
 fn ex1a_circle_h04() {
     check("ex1a", Some(0.7));
 }
@@ -99,12 +98,11 @@ fn ex2_circle_with_hole() {
     check("ex2", Some(0.7));
 }
 #[test]
-#[ignore = "q mean 0.9648 (target 0.97); q min 0.765, size deviation 3.2% pass. The start now keeps the equilateral lattice (fixed corners snapped onto it, 201 nodes); the former fixed-first start bent it into right triangles and happened to reach 0.9733 with 260 nodes"]
 fn ex3a_square_with_hole() {
     check("ex3a", Some(0.7));
 }
 #[test]
-#[ignore = "graded sizes: q mean 0.9418 (target 0.97), q min 0.533 (target 0.7); size deviation 4.7% (target 4%): out of reach so far (before the fixed corners were snapped onto the start lattice: 0.949, 0.752, 4.0%)"]
+#[ignore = "graded sizes: q mean 0.9628 (target 0.97), size deviation 4.1% (target 4%); q min 0.781 passes (before the local search after equilibrium: 0.9418, 4.7%, 0.533)"]
 fn ex3b_square_with_hole_graded() {
     check("ex3b", Some(0.7));
 }
@@ -113,7 +111,6 @@ fn ex4_hexagons() {
     check("ex4", Some(0.7));
 }
 #[test]
-#[ignore = "strong grading in a narrow gap: q mean 0.9636 (target 0.97); q min 0.789, size deviation 3.0% and boundary nodes within 1.3e-14 h0 pass"]
 fn ex5_geometric_adaptivity() {
     check("ex5", Some(0.7));
 }

@@ -35,11 +35,6 @@ const Q_REPAIR: f64 = 0.02;
 /// Nodes moved farther than this many local sizes since their last check get their edges
 /// re-checked for the Delaunay property (the seed's ttol, applied per node).
 const TTOL: f64 = 0.1;
-/// The final smoothing moves the interior vertices of triangles below this quality, for at
-/// most POLISH_ROUNDS rounds of at most POLISH_STEPS pattern-search steps per vertex.
-const POLISH_Q: f64 = 0.75;
-const POLISH_ROUNDS: usize = 4;
-const POLISH_STEPS: usize = 40;
 /// Initial meshes with more vertices than this are laid out along a Hilbert curve, and their
 /// force loop skips settled nodes.
 const RELAYOUT_ABOVE: usize = 20_000;
@@ -328,6 +323,19 @@ pub(crate) fn run_moving(
     equilibrium(&mut ctx, &mut mesh)?;
     if trace {
         eprintln!("equilibrium done at {:.3} s", t0.elapsed().as_secs_f64());
+    }
+    if ctx.metric.is_none() && ctx.internal.is_none() {
+        let geo = super::polish2d::Geometry {
+            h: &|p| ctx.h(p),
+            project: &|p| ctx.project(p),
+            fscale: opts.fscale,
+            dt: opts.deltat,
+        };
+        let changes = if start.is_none() { super::polish2d::search(&mut mesh, &geo)? } else { 0 };
+        let kept = super::polish2d::polish(&mut mesh, &|p| ctx.h(p))?;
+        if trace {
+            eprintln!("polish: {changes} local changes, {kept} sweeps, done at {:.3} s", t0.elapsed().as_secs_f64());
+        }
     }
     for v in frozen {
         if mesh.contains_vertex(v) {
@@ -1550,11 +1558,6 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     density_control(ctx, m, cands)?;
     ctx.report.flips += ctx.make_delaunay(m);
     settle_boundary(ctx, m)?;
-    let polished = polish_worst(ctx, m)?;
-    if !polished.is_empty() {
-        let stack = star_edges(m, &polished);
-        ctx.report.flips += ctx.legalize(m, stack);
-    }
     ctx.report.iterations = iter;
     ctx.report.converged = converged;
     if !converged {
@@ -1562,38 +1565,6 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             format!("iteration cap of {} reached; the mesh is the last valid state", opts.max_iter);
     }
     Ok(())
-}
-
-/// Optimisation-based smoothing of the worst triangles (Freitag and Ollivier-Gooch 1997): each
-/// interior vertex of a triangle below POLISH_Q moves, by a pattern search, to where the worst
-/// triangle of its star is best. A move is kept only when it raises that minimum, keeps every
-/// triangle of the star positive (exact) and the vertex inside the domain. The truss leaves such
-/// triangles where the boundary spacing and the interior rows meet: its forces even out lengths,
-/// they do not raise a minimum. Returns the vertices moved.
-fn polish_worst(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<Vec<VertexId>, Error> {
-    let mut moved = Vec::new();
-    for _ in 0..POLISH_ROUNDS {
-        let mut seen = crate::FastSet::default();
-        let mut verts: Vec<VertexId> = Vec::new();
-        for f in m.face_ids() {
-            let t = m.face_vertices(f);
-            if ctx.tri_q(t.map(|v| m.pos(v))) < POLISH_Q {
-                verts.extend(t.into_iter().filter(|&v| m.tag(v) == VertexTag::Interior && seen.insert(v)));
-            }
-        }
-        let before = moved.len();
-        for v in verts {
-            if let Some(p) = best_star_position(ctx, m, v)? {
-                if m.relocate(v, p).is_ok() {
-                    moved.push(v);
-                }
-            }
-        }
-        if moved.len() == before {
-            break;
-        }
-    }
-    Ok(moved)
 }
 
 /// The half-edges from each vertex and the link edges opposite it: the edges whose Delaunay
@@ -1609,46 +1580,6 @@ fn star_edges(m: &TriMesh<DVec2>, vertices: &[VertexId]) -> Vec<HalfEdgeId> {
         }
     }
     out
-}
-
-/// The pattern search of [`polish_worst`] for one vertex: `None` when no better place is found.
-fn best_star_position(ctx: &Ctx, m: &TriMesh<DVec2>, v: VertexId) -> Result<Option<DVec2>, Error> {
-    let faces = m.vertex_faces(v);
-    let stars: smallvec::SmallVec<[[VertexId; 3]; 8]> = faces.iter().map(|&f| m.face_vertices(f)).collect();
-    let worst = |x: DVec2| -> f64 {
-        let mut w = f64::INFINITY;
-        for t in &stars {
-            let q = t.map(|u| if u == v { x } else { m.pos(u) });
-            if orient2d(q[0], q[1], q[2]) != Sign::Positive {
-                return -1.0;
-            }
-            w = w.min(ctx.tri_q(q));
-        }
-        w
-    };
-    let start = m.pos(v);
-    let reach = stars.iter().flat_map(|t| t.iter()).map(|&u| m.pos(u).distance(start)).fold(0.0, f64::max);
-    let (mut at, mut best) = (start, worst(start));
-    let mut step = 0.1 * reach;
-    for _ in 0..POLISH_STEPS {
-        let mut next = None;
-        for k in 0..8 {
-            let a = k as f64 * std::f64::consts::FRAC_PI_4;
-            let x = at + step * DVec2::new(a.cos(), a.sin());
-            let q = worst(x);
-            if q > best && next.map_or(true, |(_, b)| q > b) {
-                next = Some((x, q));
-            }
-        }
-        match next {
-            Some((x, q)) if ctx.approx_dist(x)? < -ctx.geps => (at, best) = (x, q),
-            _ => step *= 0.5,
-        }
-        if step < 1e-3 * reach {
-            break;
-        }
-    }
-    Ok((at != start).then_some(at))
 }
 
 /// Boundary nodes pushed inside become interior (a boundary ear is filled over them); interior

@@ -10,6 +10,7 @@ mod local3d;
 pub mod metric;
 mod options;
 mod options3;
+mod polish2d;
 mod report;
 mod report3;
 
