@@ -298,7 +298,7 @@ pub(crate) fn run_moving(
                 let tag = if opts.fixed.contains(&prev.pos(v)) { VertexTag::Fixed } else { VertexTag::Interior };
                 fixed_prev.set_tag(v, tag);
             }
-            carve(&ctx, &fixed_prev, CARRY_BOUNDARY)?
+            carve(&ctx, fixed_prev, CARRY_BOUNDARY)?
         }
     };
     if adapt {
@@ -468,7 +468,7 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
         internal::align(&mut m, di, ctx.geps)?;
     }
     let t = Instant::now();
-    let out = carve(ctx, &m, 0.0);
+    let out = carve(ctx, m, 0.0);
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         eprintln!("carve {:.3} s", t.elapsed().as_secs_f64());
     }
@@ -498,7 +498,8 @@ fn edge_certainly_outside(ctx: &Ctx, m: &TriMesh<DVec2>, h: HalfEdgeId) -> Resul
 
 /// Keeps the triangles whose centroid is inside (d < -geps), repairs pinched vertices, and
 /// tags the boundary.
-fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<DVec2>, Error> {
+/// Takes the mesh by value: it is dropped before the carved one is built (peak memory).
+fn carve(ctx: &Ctx, m: TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<DVec2>, Error> {
     let (points, tris, labels, keys) = m.to_arrays();
     // As the seed keeps only grid points with d < geps, keep the triangles whose three
     // vertices are inside; the pressure then pushes the outer row onto the boundary. Boundary
@@ -515,6 +516,7 @@ fn carve(ctx: &Ctx, m: &TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<D
         })
         .collect::<Result<Vec<bool>, Error>>()?;
     let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
+    drop(m);
     let mut keep: Vec<[usize; 3]> = Vec::with_capacity(tris.len());
     // Labels are looked up again after the clean-up below; with one subdomain (the usual
     // case) there is nothing to look up.
@@ -817,6 +819,7 @@ pub(crate) fn drop_small_fans(tris: &[[usize; 3]], pinched: &[usize], n: usize) 
 // ============================ force equilibrium ============================
 
 /// Compact arrays of the mesh for the force loop, rebuilt when the topology changes.
+#[derive(Default)]
 struct Snapshot {
     ids: Vec<VertexId>,
     kind: Vec<u8>,
@@ -1493,6 +1496,8 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         if topo_changed {
             rebuilds += 1;
             let tb = Instant::now();
+            // The old arrays go before the new ones come (peak memory).
+            drop(std::mem::take(&mut snap));
             snap = Snapshot::build(m);
             build_s += tb.elapsed().as_secs_f64();
             slots.clear();
