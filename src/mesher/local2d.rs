@@ -12,7 +12,7 @@ use super::{MeshOutput2, Options2, QualityStats, Report};
 use crate::geometry::project::{project2, ProjectError, Projection};
 use crate::geometry::Implicit2;
 use crate::predicates::{orient2d, Sign};
-use crate::topology::{HalfEdgeId, Level, TriMesh, VertexId, VertexTag};
+use crate::topology::{HalfEdgeId, Incidence, Level, TriMesh, VertexId, VertexTag};
 use crate::Error;
 use glam::DVec2;
 use rayon::prelude::*;
@@ -685,12 +685,13 @@ fn drop_islands(tris: &[[usize; 3]], inside: &[bool]) -> Vec<[usize; 3]> {
     // Triangles sharing an edge are joined (union-find; the triangles on an edge a-b are found
     // among the few around a: no map and no sort, which cost most of the carving on large
     // starts).
-    let around = VertexTriangles::new(inside.len(), tris);
+    let around = Incidence::new(inside.len(), tris);
     let mut sets = crate::topology::DisjointSets::new(tris.len());
     for (t, tri) in tris.iter().enumerate() {
         for k in 0..3 {
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            for u in around.of(a) {
+            for &u in around.of(a) {
+                let u = u as usize;
                 if u > t && tris[u].contains(&b) {
                     sets.join(t, u);
                 }
@@ -714,9 +715,11 @@ fn drop_islands(tris: &[[usize; 3]], inside: &[bool]) -> Vec<[usize; 3]> {
 
 /// Vertices with more than one boundary edge leaving them in a triangle list.
 pub(crate) fn pinched_vertices(n: usize, tris: &[[usize; 3]]) -> Vec<usize> {
-    let around = VertexTriangles::new(n, tris);
+    let around = Incidence::new(n, tris);
     // Whether some triangle holds the directed edge a -> b (it is then among a's triangles).
-    let has = |a: usize, b: usize| around.of(a).any(|u| (0..3).any(|k| tris[u][k] == a && tris[u][(k + 1) % 3] == b));
+    let has = |a: usize, b: usize| {
+        around.of(a).iter().any(|&u| (0..3).any(|k| tris[u as usize][k] == a && tris[u as usize][(k + 1) % 3] == b))
+    };
     let mut count = vec![0u8; n];
     for t in tris {
         for k in 0..3 {
@@ -728,39 +731,6 @@ pub(crate) fn pinched_vertices(n: usize, tris: &[[usize; 3]]) -> Vec<usize> {
         }
     }
     (0..n).filter(|&i| count[i] > 1).collect()
-}
-
-/// The triangles around each vertex of a triangle list (CSR).
-struct VertexTriangles {
-    start: Vec<u32>,
-    list: Vec<u32>,
-}
-
-impl VertexTriangles {
-    fn new(n: usize, tris: &[[usize; 3]]) -> VertexTriangles {
-        let mut start = vec![0u32; n + 1];
-        for t in tris {
-            for &v in t {
-                start[v + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            start[i + 1] += start[i];
-        }
-        let mut cursor: Vec<u32> = start[..n].to_vec();
-        let mut list = vec![0u32; 3 * tris.len()];
-        for (k, t) in tris.iter().enumerate() {
-            for &v in t {
-                list[cursor[v] as usize] = k as u32;
-                cursor[v] += 1;
-            }
-        }
-        VertexTriangles { start, list }
-    }
-    /// The triangles (indices) holding v.
-    fn of(&self, v: usize) -> impl Iterator<Item = usize> + '_ {
-        self.list[self.start[v] as usize..self.start[v + 1] as usize].iter().map(|&t| t as usize)
-    }
 }
 
 /// For each pinched vertex keeps only its largest fan of triangles.
@@ -827,9 +797,8 @@ struct Snapshot {
     adj: Vec<u32>,
     tris: Vec<[u32; 3]>,
     tri_faces: Vec<crate::topology::FaceId>,
-    /// The triangles (indices into `tris`) of each vertex, CSR.
-    vt_start: Vec<u32>,
-    vt: Vec<u32>,
+    /// The triangles (indices into `tris`) of each vertex.
+    vt: Incidence,
     /// Every edge: endpoints, one half-edge, and its kind (EDGE_*).
     edges: Vec<(u32, u32, HalfEdgeId, u8)>,
     /// Flippable edges (interior, same label both sides): a, b, and the opposite c, d.
@@ -912,23 +881,7 @@ impl Snapshot {
         let tri_faces: Vec<crate::topology::FaceId> = m.face_ids().collect();
         let tris: Vec<[u32; 3]> =
             tri_faces.par_iter().with_min_len(CHUNK).map(|&f| m.face_vertices(f).map(|v| index[v])).collect();
-        let mut vt_start = vec![0u32; n + 1];
-        for t in &tris {
-            for &v in t {
-                vt_start[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            vt_start[i + 1] += vt_start[i];
-        }
-        let mut cursor: Vec<u32> = vt_start[..n].to_vec();
-        let mut vt = vec![0u32; 3 * tris.len()];
-        for (k, t) in tris.iter().enumerate() {
-            for &v in t {
-                vt[cursor[v as usize] as usize] = k as u32;
-                cursor[v as usize] += 1;
-            }
-        }
+        let vt = Incidence::new(n, &tris);
         let mut loop_nbrs = vec![(u32::MAX, u32::MAX); ids.len()];
         let mut apexes = Vec::new();
         for &(_, _, h, kind) in &edges {
@@ -970,7 +923,6 @@ impl Snapshot {
             adj,
             tris,
             tri_faces,
-            vt_start,
             vt,
             edges,
             quads,
@@ -1004,8 +956,7 @@ impl Snapshot {
         marks.reset(self.tris.len());
         let mut out = Vec::with_capacity(2 * vertices.len());
         for &v in vertices {
-            for k in self.vt_start[v as usize]..self.vt_start[v as usize + 1] {
-                let t = self.vt[k as usize];
+            for &t in self.vt.of(v as usize) {
                 if marks.mark(t) {
                     out.push(t);
                 }

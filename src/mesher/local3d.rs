@@ -590,29 +590,13 @@ impl Snapshot {
         // Vertex -> tets by counting, then each vertex's neighbours sorted locally (in
         // parallel, deterministic): no global sort of the 12 T directed edges.
         let n = ids.len();
-        let mut start = vec![0u32; n + 1];
-        for t in &tets {
-            for &i in t {
-                start[i as usize + 1] += 1;
-            }
-        }
-        for i in 0..n {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut inc = vec![0u32; 4 * tets.len()];
-        for (k, t) in tets.iter().enumerate() {
-            for &i in t {
-                inc[fill[i as usize] as usize] = k as u32;
-                fill[i as usize] += 1;
-            }
-        }
+        let inc = crate::topology::Incidence::new(n, &tets);
         let lists: Vec<SmallVec<[u32; 24]>> = (0..n)
             .into_par_iter()
             .with_min_len(256)
             .map(|i| {
                 let mut l: SmallVec<[u32; 24]> = SmallVec::new();
-                for &k in &inc[start[i] as usize..start[i + 1] as usize] {
+                for &k in inc.of(i) {
                     for &j in &tets[k as usize] {
                         if j as usize != i {
                             l.push(j);

@@ -127,29 +127,13 @@ pub fn gradient_limit_mesh(
         return Err(Error::InvalidMesh(format!("triangle {t:?} out of range")));
     }
     // Triangles around each node (compressed rows).
-    let mut start = vec![0usize; n + 1];
-    for t in triangles {
-        for &v in t {
-            start[v + 1] += 1;
-        }
-    }
-    for i in 0..n {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut around = vec![0u32; start[n]];
-    for (ti, t) in triangles.iter().enumerate() {
-        for &v in t {
-            around[fill[v]] = ti as u32;
-            fill[v] += 1;
-        }
-    }
+    let around = crate::topology::Incidence::new(n, triangles);
     let top = h.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let mut heap = IndexedHeap::from_keys(h, top);
     let mut fixed = vec![false; n];
     while let Some((j, _)) = heap.pop() {
         fixed[j] = true;
-        for &ti in &around[start[j]..start[j + 1]] {
+        for &ti in around.of(j) {
             let t = triangles[ti as usize];
             let r = t.iter().position(|&v| v == j).unwrap();
             for s in 1..3 {

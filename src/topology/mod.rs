@@ -11,6 +11,7 @@
 
 mod delaunay;
 mod disjoint_sets;
+mod incidence;
 mod queue;
 mod tet_delaunay;
 mod tet_delaunay_kernel;
@@ -23,6 +24,7 @@ mod trimesh;
 
 pub use delaunay::hilbert_order;
 pub use disjoint_sets::DisjointSets;
+pub use incidence::{Incidence, VertexIndex};
 pub use queue::QualityQueue;
 pub use tet_delaunay::{hilbert_order_3d, hilbert_sort_3d};
 pub use tet_ops::{Flip23Plan, Flip32Plan, TetPatch};
