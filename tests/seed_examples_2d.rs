@@ -330,3 +330,22 @@ fn unit_square_with_fixed_corners() {
         assert!(q.q_mean >= 0.95, "h0 {h0}: q mean {}", q.q_mean);
     }
 }
+
+/// A large plain start is refined on flat arrays; with a size function (here constant) the
+/// start goes through the general refinement loop on the half-edge mesh. Both must carve the
+/// same lattice, laid out the same way: the meshes after a few steps are identical, bit for bit.
+#[test]
+fn large_start_on_arrays_matches_the_general_refinement() {
+    let disk = Circle::new([0.0, 0.0], 1.0);
+    let h0 = 0.0075; // about 1.3x10^5 triangles: above the array start's threshold
+    let plain = Options2::uniform(h0, [-1.0, -1.0], [1.0, 1.0]).with_max_iter(3);
+    let sized = plain.clone().with_size(|_| 1.0);
+    let a = mesh_2d(&disk, &plain).expect("plain start").mesh;
+    let b = mesh_2d(&disk, &sized).expect("start with a size function").mesh;
+    assert!(a.num_faces() > 100_000, "{} triangles", a.num_faces());
+    let (pa, ta, _, _) = a.to_arrays();
+    let (pb, tb, _, _) = b.to_arrays();
+    assert_eq!(pa.len(), pb.len());
+    assert!(pa.iter().zip(&pb).all(|(x, y)| x.x.to_bits() == y.x.to_bits() && x.y.to_bits() == y.y.to_bits()));
+    assert_eq!(ta, tb);
+}

@@ -35,6 +35,10 @@ const Q_REPAIR: f64 = 0.02;
 /// Nodes moved farther than this many local sizes since their last check get their edges
 /// re-checked for the Delaunay property (the seed's ttol, applied per node).
 const TTOL: f64 = 0.1;
+/// Plain starts (uniform sizes, no fixed points, no metric, no internal boundaries) estimated at
+/// more triangles than this are refined on flat arrays (well above RELAYOUT_ABOVE vertices, so
+/// that the carved result is laid out by position whichever way it was refined).
+const ARRAY_START_ABOVE: f64 = 80_000.0;
 /// Initial meshes with more vertices than this are laid out along a Hilbert curve, and their
 /// force loop skips settled nodes.
 const RELAYOUT_ABOVE: usize = 20_000;
@@ -383,16 +387,27 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
             c + r_out * DVec2::new(a.cos(), a.sin())
         })
         .collect();
-    let (mut m, _) = TriMesh::from_arrays(&s, &[[0, 1, 2]]).map_err(|e| Error::Internal(e.to_string()))?;
     for p in &opts.fixed {
         if ctx.approx_dist(*p)? > ctx.geps {
             return Err(Error::Invalid(format!("fixed point ({}, {}) lies outside the domain", p.x, p.y)));
         }
     }
+    let cap = (8.0 * estimate + 10_000.0) as usize;
+    let plain = opts.size.is_none() && ctx.metric.is_none() && ctx.internal.is_none() && opts.fixed.is_empty();
+    if plain && estimate > ARRAY_START_ABOVE {
+        let (points, tris) = refine_uniform(ctx, &s, cap)?;
+        let n = points.len();
+        let labels = vec![0; tris.len()];
+        return carve_arrays(
+            ctx,
+            Cells { points, tris, labels, fixed: vec![false; n], on_boundary: vec![false; n] },
+            0.0,
+        );
+    }
+    let (mut m, _) = TriMesh::from_arrays(&s, &[[0, 1, 2]]).map_err(|e| Error::Internal(e.to_string()))?;
     // Rounds of red refinement: every edge longer than its target (and not certainly
     // outside) is split at its midpoint, then Lawson flips restore Delaunay. On a uniform
     // region the midpoints of one lattice level are exactly the next level's lattice.
-    let cap = (8.0 * estimate + 10_000.0) as usize;
     loop {
         let mut todo: Vec<(VertexId, VertexId)> = Vec::new();
         for h in m.edge_ids() {
@@ -475,6 +490,52 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
     out
 }
 
+/// Uniform sizes, no fixed points, a large start: the rounds of red refinement of
+/// [`initial_mesh`] on flat arrays. Every edge of a round has the same length, so a round
+/// splits every triangle that is not certainly outside into four equilateral ones (no flips
+/// needed); certainly outside triangles are dropped at once, where the general loop keeps
+/// them (halved where a neighbour split their edge) until carving drops them. The carved
+/// lattice is the same, without the arena's bookkeeping per split.
+fn refine_uniform(ctx: &Ctx, corners: &[DVec2], cap: usize) -> Result<(Vec<DVec2>, Vec<[usize; 3]>), Error> {
+    let safety = if ctx.domain.is_distance() { 1.0 } else { 2.0 };
+    let mut pts = corners.to_vec();
+    let mut tris = vec![[0usize, 1, 2]];
+    while let Some(t0) = tris.first() {
+        if ctx.ratio(pts[t0[0]], pts[t0[1]])? <= INIT_SPLIT {
+            break;
+        }
+        let outside: Vec<bool> = tris
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|t| {
+                let [a, b, c] = t.map(|i| pts[i]);
+                let lmax = a.distance(b).max(b.distance(c)).max(c.distance(a));
+                Ok(ctx.approx_dist((a + b + c) / 3.0)? > safety * lmax)
+            })
+            .collect::<Result<Vec<bool>, Error>>()?;
+        let kept = outside.iter().filter(|&&o| !o).count();
+        let mut mids: crate::FastMap<(usize, usize), usize> =
+            crate::FastMap::with_capacity_and_hasher(2 * kept, Default::default());
+        let mut next = Vec::with_capacity(4 * kept);
+        for (t, _) in tris.iter().zip(&outside).filter(|(_, &o)| !o) {
+            let mut mid = |a: usize, b: usize| {
+                *mids.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    pts.push((pts[a] + pts[b]) * 0.5);
+                    pts.len() - 1
+                })
+            };
+            let [a, b, c] = *t;
+            let (ab, bc, ca) = (mid(a, b), mid(b, c), mid(c, a));
+            next.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+        }
+        tris = next;
+        if pts.len() > cap {
+            return Err(Error::Internal(format!("initial refinement passed {cap} vertices")));
+        }
+    }
+    Ok((pts, tris))
+}
+
 /// A face is certainly outside when its approximate distance at the centroid exceeds its
 /// longest edge (twice that for non-distance functions).
 fn face_certainly_outside(ctx: &Ctx, m: &TriMesh<DVec2>, f: crate::topology::FaceId) -> Result<bool, Error> {
@@ -501,11 +562,28 @@ fn edge_certainly_outside(ctx: &Ctx, m: &TriMesh<DVec2>, h: HalfEdgeId) -> Resul
 /// Takes the mesh by value: it is dropped before the carved one is built (peak memory).
 fn carve(ctx: &Ctx, m: TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<DVec2>, Error> {
     let (points, tris, labels, keys) = m.to_arrays();
+    let on_boundary: Vec<bool> = keys.iter().map(|&k| boundary_slack > 0.0 && m.is_boundary_vertex(k)).collect();
+    let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
+    drop(m);
+    carve_arrays(ctx, Cells { points, tris, labels, fixed, on_boundary }, boundary_slack)
+}
+
+/// A triangle list with what carving needs to know of its vertices.
+struct Cells {
+    points: Vec<DVec2>,
+    tris: Vec<[usize; 3]>,
+    labels: Vec<u32>,
+    fixed: Vec<bool>,
+    on_boundary: Vec<bool>,
+}
+
+/// [`carve`] on arrays.
+fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Result<TriMesh<DVec2>, Error> {
+    let Cells { points, tris, labels, fixed, on_boundary } = cells;
     // As the seed keeps only grid points with d < geps, keep the triangles whose three
     // vertices are inside; the pressure then pushes the outer row onto the boundary. Boundary
     // vertices of a previous mesh count as inside up to `boundary_slack` relative sizes
     // outside: they are projected onto the moved boundary instead of dropped with their row.
-    let on_boundary: Vec<bool> = keys.iter().map(|&k| boundary_slack > 0.0 && m.is_boundary_vertex(k)).collect();
     let inside: Vec<bool> = points
         .par_iter()
         .zip(&on_boundary)
@@ -515,8 +593,6 @@ fn carve(ctx: &Ctx, m: TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<DV
             Ok(ctx.d(*p)? < ctx.geps + slack)
         })
         .collect::<Result<Vec<bool>, Error>>()?;
-    let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
-    drop(m);
     let mut keep: Vec<[usize; 3]> = Vec::with_capacity(tris.len());
     // Labels are looked up again after the clean-up below; with one subdomain (the usual
     // case) there is nothing to look up.
@@ -577,7 +653,13 @@ fn carve(ctx: &Ctx, m: TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<DV
     let mut tri: Vec<([usize; 3], u32)> =
         keep.iter().map(|t| ([rank[map[t[0]]], rank[map[t[1]]], rank[map[t[2]]]], label_of(t))).collect();
     if relayout {
-        tri.sort_unstable_by_key(|(t, _)| (t[0].min(t[1]).min(t[2]), *t));
+        // Each triangle from its first vertex on (orientation kept), then by that vertex: the
+        // arena order then follows from the triangles alone, however they were produced.
+        for (t, _) in tri.iter_mut() {
+            let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+            t.rotate_left(k);
+        }
+        tri.sort_unstable_by_key(|(t, _)| *t);
     }
     let (labels, tri): (Vec<u32>, Vec<[usize; 3]>) = tri.into_iter().map(|(t, l)| (l, t)).unzip();
     let (mut out, ids) =
