@@ -1503,38 +1503,11 @@ fn smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, E
             pm[k] = x - e;
             g[axis] = (tq(pp) - tq(pm)) / (2.0 * eps);
         }
-        if boundary {
-            let nrm = ctx.domain.gradient(x).normalize_or_zero();
-            g -= nrm * g.dot(nrm);
-        }
-        if g.length() <= 0.0 || !g.is_finite() {
-            break;
-        }
-        let dir = g.normalize();
         let mut step = 0.1 * len;
-        let mut accepted = false;
-        for _ in 0..8 {
-            let mut y = x + dir * step;
-            if boundary {
-                match ctx.project(y)? {
-                    Some(q) => y = q,
-                    None => {
-                        step *= 0.5;
-                        continue;
-                    }
-                }
-            }
-            let (fy, _) = star_min(&star, y);
-            if fy > fx + 1e-9 {
-                x = y;
-                fx = fy;
-                accepted = true;
-                break;
-            }
-            step *= 0.5;
-        }
-        if !accepted {
-            break;
+        let better = |y: DVec3| Some(star_min(&star, y).0).filter(|&fy| fy > fx + 1e-9);
+        match ascend(ctx, x, g, boundary, &mut step, 8, better)? {
+            Some((y, fy)) => (x, fx) = (y, fy),
+            None => break,
         }
     }
     if fx > f0 + 1e-9 && star_rr(&star, x) > star_rr(&star, x0) - RR_SLACK && m.relocate(v, x).is_ok() {
@@ -1547,15 +1520,57 @@ fn smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, E
 /// Mean radius ratio of the star with `v` at `x`: a move for the worst tet may not cost the
 /// others more than RR_SLACK of it.
 fn star_rr(star: &[([DVec3; 4], usize)], x: DVec3) -> f64 {
-    let s: f64 = star
-        .iter()
+    star_rr_sum(star, x) / star.len().max(1) as f64
+}
+
+/// Summed radius ratio of the star with its vertex at `x`.
+fn star_rr_sum(star: &[([DVec3; 4], usize)], x: DVec3) -> f64 {
+    star.iter()
         .map(|(p, k)| {
             let mut p = *p;
             p[*k] = x;
             crate::quality::tet_radius_ratio(p)
         })
-        .sum();
-    s / star.len().max(1) as f64
+        .sum()
+}
+
+/// One line search of the smoothing ascents: from `x` along the gradient `g` (in the tangent
+/// plane of d = 0 for boundary vertices, which are projected back), halving `step` up to
+/// `tries` times until `better` returns the new objective value. `None`: no better point.
+fn ascend(
+    ctx: &Ctx,
+    x: DVec3,
+    mut g: DVec3,
+    boundary: bool,
+    step: &mut f64,
+    tries: usize,
+    better: impl Fn(DVec3) -> Option<f64>,
+) -> Result<Option<(DVec3, f64)>, Error> {
+    if boundary {
+        let nrm = ctx.domain.gradient(x).normalize_or_zero();
+        g -= nrm * g.dot(nrm);
+    }
+    if g.length() <= 0.0 || !g.is_finite() {
+        return Ok(None);
+    }
+    let dir = g.normalize();
+    for _ in 0..tries {
+        let mut y = x + dir * *step;
+        if boundary {
+            match ctx.project(y)? {
+                Some(q) => y = q,
+                None => {
+                    *step *= 0.5;
+                    continue;
+                }
+            }
+        }
+        if let Some(fy) = better(y) {
+            return Ok(Some((y, fy)));
+        }
+        *step *= 0.5;
+    }
+    Ok(None)
 }
 
 /// Random moves of `v` within a tenth of its edge length (tangential on the boundary), the
@@ -1774,15 +1789,7 @@ fn mean_smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bo
     let x0 = m.pos(v);
     let nb = m.vertex_neighbours(v);
     let len = nb.iter().map(|&w| m.pos(w).distance(x0)).sum::<f64>() / nb.len().max(1) as f64;
-    let sum_at = |x: DVec3| -> f64 {
-        star.iter()
-            .map(|(p, k)| {
-                let mut p = *p;
-                p[*k] = x;
-                crate::quality::tet_radius_ratio(p)
-            })
-            .sum()
-    };
+    let sum_at = |x: DVec3| star_rr_sum(&star, x);
     let (t0, _) = star_min(&star, x0);
     let floor = t0.min(RR_TQ_FLOOR);
     let f0 = sum_at(x0);
@@ -1796,38 +1803,13 @@ fn mean_smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bo
             e[axis] = eps;
             g[axis] = (sum_at(x + e) - sum_at(x - e)) / (2.0 * eps);
         }
-        if boundary {
-            let nrm = ctx.domain.gradient(x).normalize_or_zero();
-            g -= nrm * g.dot(nrm);
-        }
-        if g.length() <= 0.0 || !g.is_finite() {
-            break;
-        }
-        let dir = g.normalize();
-        let mut accepted = false;
-        for _ in 0..6 {
-            let mut y = x + dir * step;
-            if boundary {
-                match ctx.project(y)? {
-                    Some(q) => y = q,
-                    None => {
-                        step *= 0.5;
-                        continue;
-                    }
-                }
-            }
-            let fy = sum_at(y);
-            if fy > fx + 1e-9 && star_min(&star, y).0 >= floor {
-                x = y;
-                fx = fy;
-                accepted = true;
+        let better = |y: DVec3| Some(sum_at(y)).filter(|&fy| fy > fx + 1e-9 && star_min(&star, y).0 >= floor);
+        match ascend(ctx, x, g, boundary, &mut step, 6, better)? {
+            Some((y, fy)) => {
+                (x, fx) = (y, fy);
                 step *= 1.5;
-                break;
             }
-            step *= 0.5;
-        }
-        if !accepted {
-            break;
+            None => break,
         }
     }
     if fx > f0 + 1e-7 && m.relocate(v, x).is_ok() {
