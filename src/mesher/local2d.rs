@@ -322,11 +322,11 @@ pub(crate) fn run_moving(
     };
     let trace = std::env::var_os("TRUSSMESH_TRACE").is_some();
     if trace {
-        eprintln!("start ready at {:.3} s", t0.elapsed().as_secs_f64());
+        eprintln!("start ready at {:.3} s, peak {}", t0.elapsed().as_secs_f64(), peak_memory());
     }
     equilibrium(&mut ctx, &mut mesh)?;
     if trace {
-        eprintln!("equilibrium done at {:.3} s", t0.elapsed().as_secs_f64());
+        eprintln!("equilibrium done at {:.3} s, peak {}", t0.elapsed().as_secs_f64(), peak_memory());
     }
     if ctx.metric.is_none() && ctx.internal.is_none() {
         let geo = super::polish2d::Geometry {
@@ -364,6 +364,14 @@ pub(crate) fn run_moving(
         report.metric = Some(super::metric::MetricStats::of(&mesh, &|p| f(p)));
     }
     Ok(MeshOutput2 { mesh, report })
+}
+
+/// The process's peak resident memory so far, for the trace (Linux; "?" elsewhere).
+fn peak_memory() -> String {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("VmHWM:")).map(|l| l[6..].trim().to_string()))
+        .unwrap_or_else(|| "?".into())
 }
 
 // ============================ initial mesh ============================
@@ -1181,6 +1189,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     let mut build_s = 0.0;
     let (mut full_s, mut part_s) = (0.0, 0.0);
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+        eprintln!("equilibrium entered, peak {}", peak_memory());
         let mut val = [0usize; 12];
         for i in 0..p.len() {
             if snap.kind[i] == INTERIOR {
@@ -1188,11 +1197,12 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             }
         }
         eprintln!(
-            "start: q mean {:.5}, {} vertices ({} fixed), interior valences {:?}",
+            "start: q mean {:.5}, {} vertices ({} fixed), interior valences {:?}, peak {}",
             mean_quality(ctx, &snap, &p),
             p.len(),
             snap.kind.iter().filter(|&&k| k == FIXED).count(),
-            val
+            val,
+            peak_memory()
         );
     }
     while iter < opts.max_iter {
@@ -1584,12 +1594,16 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             swept as f64 / p.len().max(1) as f64
         );
     }
+    if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+        eprintln!("loop done, peak {}", peak_memory());
+    }
+    // The loop's working arrays go before the final clean-up allocates (peak memory).
+    drop((pold, newp, hv, sums, chunk_sums, moved, stepped_last, mv, slots, marks, tri_marks));
     // Every boundary node ends on d = 0.
     project_boundary(ctx, &snap, &mut p, m)?;
     write_back(m, &snap, &p);
-    // Final cleanup: repair bad triangles, restore Delaunay.
-    let snap = Snapshot::build(m);
-    let p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
+    // Final cleanup: repair bad triangles, restore Delaunay. The snapshot is current: it is
+    // rebuilt after every topology change, and only positions changed since.
     let mu = metric.map(|_| munit);
     let band = if metric.is_some() { METRIC_BAND } else { (SPLIT_ABOVE, COLLAPSE_BELOW) };
     let cands = density_candidates(ctx, &snap, &p, unit, mu, band)?;
