@@ -1172,22 +1172,20 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     // (nothing in it moved), so skipping it changes nothing but the cost: the lattice interior
     // of the start is in equilibrium from the first step, and most of the run is spent near
     // the boundary. Full sweeps: the first step after a topology change, every DENSITY_EVERY-th
-    // step (the size scale of eq. 2.6 is summed there), and every step with a metric or from a
-    // previous mesh (short runs of a few steps that must undo a distortion everywhere) or of a
-    // small mesh (a sweep costs microseconds there).
+    // step (the size scale of eq. 2.6 is summed on full sweeps only), and every step with a
+    // metric or from a previous mesh (short runs of a few steps that must undo a distortion
+    // everywhere) or of a small mesh (a sweep costs microseconds there).
     let large = p.len() > RELAYOUT_ABOVE;
     let mut newp = p.clone();
-    // Nodes that moved more than SETTLE in the last step, and every node that stepped at all.
+    // Nodes that moved more than SETTLE in the last step.
     let mut moved: Vec<u32> = Vec::new();
-    let mut stepped_last: Vec<u32> = Vec::new();
     let mut need_full = true;
-    let mut sums: Vec<(f64, f64)> = Vec::new();
-    let mut chunk_sums: Vec<(f64, f64)> = Vec::new();
+    let mut scale_sums = (0.0, 0.0);
     let mut marks = Marks::default();
     let mut tri_marks = Marks::default();
     let mut swept = 0usize;
     let mut build_s = 0.0;
-    let (mut full_s, mut part_s) = (0.0, 0.0);
+    let (mut full_s, mut part_s, mut full_n) = (0.0, 0.0, 0usize);
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         eprintln!("equilibrium entered, peak {}", peak_memory());
         let mut val = [0usize; 12];
@@ -1266,31 +1264,13 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
             }
             s
         };
-        // Each node's share of the sums, refreshed where an incident edge changed (a node that
-        // stepped last time, or its neighbour); the total is summed in a fixed order, so the
-        // scale is the one a full pass would give, bit for bit.
-        // Partial sums per CHUNK nodes, added in order: the same sums as `det_sum`.
-        let chunk_total = |sums: &[(f64, f64)], c: usize| {
-            sums[c * CHUNK..((c + 1) * CHUNK).min(sums.len())].iter().fold((0.0, 0.0), |a, s| (a.0 + s.0, a.1 + s.1))
-        };
+        // Summed on full sweeps only and kept in between: the premise of the active set is that
+        // a settled node's forces stand, and they would not if the scale moved under them. (At
+        // the sizes that use partial steps, one step changes the scale by about 1e-6.)
         if full {
-            sums = (0..p.len()).into_par_iter().with_min_len(CHUNK).map(node_sums).collect();
-            chunk_sums = (0..p.len().div_ceil(CHUNK)).map(|c| chunk_total(&sums, c)).collect();
-        } else {
-            let stale = snap.with_neighbours(&stepped_last, &mut marks);
-            let fresh: Vec<(f64, f64)> = stale.par_iter().with_min_len(CHUNK).map(|&i| node_sums(i as usize)).collect();
-            for (&i, s) in stale.iter().zip(fresh) {
-                sums[i as usize] = s;
-            }
-            let mut dirty = vec![false; chunk_sums.len()];
-            for &i in &stale {
-                dirty[i as usize / CHUNK] = true;
-            }
-            for (c, _) in dirty.iter().enumerate().filter(|(_, &d)| d) {
-                chunk_sums[c] = chunk_total(&sums, c);
-            }
+            scale_sums = det_sum(p.len(), node_sums);
         }
-        let (sl, sh) = chunk_sums.iter().fold((0.0, 0.0), |a, s| (a.0 + s.0, a.1 + s.1));
+        let (sl, sh) = scale_sums;
         let scale = opts.fscale * (sl / sh).sqrt();
         // With a metric: the boundary pushes back on interior nodes through a bar to their
         // mirror image across d = 0, of rest length twice an equilateral height (sqrt 3 L0):
@@ -1485,12 +1465,17 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
         // Connectivity: when some node is far from where it was at the last check (the seed's
         // ttol), every edge gets the exact in-circle test (in parallel) and bad ones flip.
+        // Large meshes look only every DENSITY_EVERY-th step, with density control: a topology
+        // change costs a snapshot rebuild and a full sweep, and so they come together, once
+        // per window, right before the window's scheduled full sweep. Every node is looked at
+        // then (one that moved far early in the window may have settled since).
         let mut topo_changed = false;
-        let far = active.par_iter().with_min_len(CHUNK).any(|&i| {
-            let i = i as usize;
-            p[i].distance(pold[i]) > TTOL * h0 * hv[i]
-        });
-        stepped_last = active;
+        let far_from_last = |i: usize| p[i].distance(pold[i]) > TTOL * h0 * hv[i];
+        let far = if !large {
+            active.par_iter().with_min_len(CHUNK).any(|&i| far_from_last(i as usize))
+        } else {
+            iter % DENSITY_EVERY == 0 && (0..p.len()).into_par_iter().with_min_len(CHUNK).any(far_from_last)
+        };
         if far {
             let bad = snap.non_delaunay(&p, &pold, metric.map(|_| &*ctx));
             pold.copy_from_slice(&p);
@@ -1532,9 +1517,10 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
         }
         let el_s = ti.elapsed().as_secs_f64();
         if full {
-            full_s += el_s
+            full_s += el_s;
+            full_n += 1;
         } else {
-            part_s += el_s
+            part_s += el_s;
         }
         if topo_changed {
             rebuilds += 1;
@@ -1590,15 +1576,17 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     }
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         eprintln!(
-            "{rebuilds} snapshot rebuilds ({build_s:.3} s) in {iter} iterations, {:.1} full sweeps of force work; full steps {full_s:.3} s, partial {part_s:.3} s",
-            swept as f64 / p.len().max(1) as f64
+            "{rebuilds} snapshot rebuilds ({build_s:.3} s) in {iter} iterations, {:.1} full sweeps of force work; {full_n} full steps {full_s:.3} s, {} partial {part_s:.3} s (mean active {:.0})",
+            swept as f64 / p.len().max(1) as f64,
+            iter - full_n,
+            swept.saturating_sub(full_n * p.len()) as f64 / (iter - full_n).max(1) as f64
         );
     }
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         eprintln!("loop done, peak {}", peak_memory());
     }
     // The loop's working arrays go before the final clean-up allocates (peak memory).
-    drop((pold, newp, hv, sums, chunk_sums, moved, stepped_last, mv, slots, marks, tri_marks));
+    drop((pold, newp, hv, moved, mv, slots, marks, tri_marks));
     // Every boundary node ends on d = 0.
     project_boundary(ctx, &snap, &mut p, m)?;
     write_back(m, &snap, &p);
