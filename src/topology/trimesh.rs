@@ -459,37 +459,73 @@ impl<P: MeshPoint> TriMesh<P> {
     /// key of each point.
     pub fn from_arrays(points: &[P], triangles: &[[usize; 3]]) -> Result<(Self, Vec<VertexId>), crate::Error> {
         use crate::Error::InvalidMesh;
-        let mut m = TriMesh::with_capacity(points.len());
-        let mut ids = Vec::with_capacity(points.len());
+        let n = points.len();
+        let mut m = TriMesh::with_capacity(n);
+        let mut ids = Vec::with_capacity(n);
         for (i, &p) in points.iter().enumerate() {
             if !p.finite() {
                 return Err(InvalidMesh(format!("point {i} is not finite")));
             }
             ids.push(m.vertices.insert(Vertex { pos: p, out: HalfEdgeId::default(), tag: VertexTag::Interior }));
         }
-        let mut used = vec![false; points.len()];
-        let mut edge_map: crate::FastMap<(usize, usize), HalfEdgeId> =
-            crate::FastMap::with_capacity_and_hasher(triangles.len() * 3, Default::default());
-        // Insertion order, so that the result never depends on hash iteration order.
-        let mut listed: Vec<(usize, usize, HalfEdgeId)> = Vec::with_capacity(triangles.len() * 3);
+        let mut used = vec![false; n];
         for (ti, t) in triangles.iter().enumerate() {
             for &i in t {
-                if i >= points.len() {
-                    return Err(InvalidMesh(format!(
-                        "triangle {ti} refers to point {i}, past the {} points",
-                        points.len()
-                    )));
+                if i >= n {
+                    return Err(InvalidMesh(format!("triangle {ti} refers to point {i}, past the {n} points")));
                 }
                 used[i] = true;
             }
             if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
                 return Err(InvalidMesh(format!("triangle {ti} repeats a vertex")));
             }
+        }
+        if let Some(i) = used.iter().position(|u| !u) {
+            return Err(InvalidMesh(format!("point {i} is used by no triangle")));
+        }
+        // Half-edge e is side e % 3 of triangle e / 3. They are listed by origin (CSR), and a
+        // twin or a repeated side is looked for among the few half-edges leaving one vertex:
+        // a hash map over all sides waits on a cache miss per lookup, and at 10^6 triangles
+        // took most of the time of building the mesh.
+        let ne = 3 * triangles.len();
+        if ne > u32::MAX as usize {
+            return Err(crate::Error::TooManyElements {
+                estimated: triangles.len() as u64,
+                limit: u32::MAX as u64 / 3,
+            });
+        }
+        let side = |e: usize| -> (usize, usize) {
+            let t = &triangles[e / 3];
+            (t[e % 3], t[(e % 3 + 1) % 3])
+        };
+        let mut start = vec![0u32; n + 1];
+        for t in triangles {
+            for &i in t {
+                start[i + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        let mut by_origin = vec![0u32; ne];
+        let mut fill: Vec<u32> = start[..n].to_vec();
+        for e in 0..ne {
+            let a = side(e).0;
+            by_origin[fill[a] as usize] = e as u32;
+            fill[a] += 1;
+        }
+        drop(fill);
+        let leaving = |a: usize| by_origin[start[a] as usize..start[a + 1] as usize].iter().map(|&e| e as usize);
+        // Faces and their half-edges in triangle order, then the boundary half-edges in side
+        // order: the arenas' layout follows the input's.
+        let mut hid: Vec<HalfEdgeId> = Vec::with_capacity(ne);
+        for (ti, t) in triangles.iter().enumerate() {
             let f = m.faces.insert(Face { half_edge: HalfEdgeId::default(), label: 0 });
             let mut hs = [HalfEdgeId::default(); 3];
             for k in 0..3 {
+                let e = 3 * ti + k;
                 let (a, b) = (t[k], t[(k + 1) % 3]);
-                if edge_map.contains_key(&(a, b)) {
+                if leaving(a).any(|x| x < e && side(x).1 == b) {
                     return Err(InvalidMesh(format!(
                         "edge {a}-{b} is used twice in the same direction (triangle {ti}): inconsistent orientation or non-manifold"
                     )));
@@ -500,8 +536,7 @@ impl<P: MeshPoint> TriMesh<P> {
                     next: HalfEdgeId::default(),
                     face: Some(f),
                 });
-                edge_map.insert((a, b), h);
-                listed.push((a, b, h));
+                hid.push(h);
                 hs[k] = h;
             }
             for k in 0..3 {
@@ -509,55 +544,42 @@ impl<P: MeshPoint> TriMesh<P> {
             }
             m.faces[f].half_edge = hs[0];
         }
-        if let Some(i) = used.iter().position(|u| !u) {
-            return Err(InvalidMesh(format!("point {i} is used by no triangle")));
-        }
         // Twins; create boundary half-edges where the opposite side is missing.
-        let mut boundary: Vec<HalfEdgeId> = Vec::new();
-        for &(a, b, h) in listed.iter() {
-            if let Some(&t) = edge_map.get(&(b, a)) {
-                m.half_edges[h].twin = t;
+        let mut boundary: Vec<(HalfEdgeId, usize)> = Vec::new();
+        for (e, &h) in hid.iter().enumerate() {
+            let (a, b) = side(e);
+            if let Some(x) = leaving(b).find(|&x| side(x).1 == a) {
+                m.half_edges[h].twin = hid[x];
             } else {
                 let t =
                     m.half_edges.insert(HalfEdge { origin: ids[b], twin: h, next: HalfEdgeId::default(), face: None });
                 m.half_edges[h].twin = t;
-                boundary.push(t);
+                boundary.push((t, b));
             }
         }
         // Vertex outs: boundary half-edges first (a vertex with two is non-manifold).
-        let mut has_boundary_out = vec![false; points.len()];
-        let mut index_of = slotmap::SecondaryMap::with_capacity(ids.len());
-        for (i, &v) in ids.iter().enumerate() {
-            index_of.insert(v, i);
-        }
-        for &b in &boundary {
-            let v = m.half_edges[b].origin;
-            let i = index_of[v];
+        let mut has_boundary_out = vec![false; n];
+        for &(b, i) in &boundary {
             if has_boundary_out[i] {
                 return Err(InvalidMesh(format!("point {i} is a non-manifold boundary vertex (two boundary fans)")));
             }
             has_boundary_out[i] = true;
-            m.vertices[v].out = b;
+            m.vertices[ids[i]].out = b;
         }
-        for b in boundary.iter().copied() {
+        for &(b, _) in &boundary {
             let dest = m.dest(b);
             m.half_edges[b].next = m.vertices[dest].out;
         }
-        for &(a, _, h) in listed.iter() {
+        for (e, &h) in hid.iter().enumerate() {
+            let a = side(e).0;
             if !has_boundary_out[a] {
                 m.vertices[ids[a]].out = h;
             }
         }
         // Manifold check: the ring walk from out must visit every outgoing half-edge.
-        let mut count = vec![0usize; points.len()];
-        for &(a, _, _) in listed.iter() {
-            count[a] += 1;
-        }
-        for &b in &boundary {
-            count[index_of[m.half_edges[b].origin]] += 1;
-        }
         for (i, &v) in ids.iter().enumerate() {
-            if m.outgoing(v).len() != count[i] {
+            let count = (start[i + 1] - start[i]) as usize + has_boundary_out[i] as usize;
+            if m.outgoing(v).len() != count {
                 return Err(InvalidMesh(format!(
                     "point {i} is a non-manifold vertex (its triangles form several fans)"
                 )));
