@@ -69,7 +69,22 @@ impl TriMesh<DVec2> {
     /// does (Lawson). Terminates on any valid planar triangulation; returns the flip count.
     /// A zero in-circle (cocircular) counts as legal.
     pub fn make_delaunay(&mut self) -> usize {
-        let stack: Vec<HalfEdgeId> = self.edge_ids().collect();
+        // The edges that fail the test are found first, in parallel (on a mesh that is almost
+        // Delaunay, the test of every edge is most of the work); the flips then start from them
+        // alone: an edge that passes changes only when a flip next to it pushes it.
+        use rayon::prelude::*;
+        let edges: Vec<HalfEdgeId> = self.edge_ids().collect();
+        let stack: Vec<HalfEdgeId> = edges
+            .par_iter()
+            .with_min_len(4096)
+            .filter(|&&h| {
+                self.interior_quad(h).is_some_and(|plan| {
+                    let (pa, pb, pc, pd) = (self.pos(plan.a), self.pos(plan.b), self.pos(plan.c), self.pos(plan.d));
+                    incircle(pa, pb, pc, pd) == Sign::Positive
+                })
+            })
+            .copied()
+            .collect();
         self.legalize(stack)
     }
 
