@@ -189,6 +189,27 @@ fn arrays_round_trip() {
         DVec2::new(0.0, -1.0),
     ];
     assert!(TriMesh::from_arrays(&bowtie, &[[0, 1, 2], [0, 3, 4]]).is_err());
+    // A side used twice in the same direction names the later triangle.
+    let square = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)];
+    let err = TriMesh::from_arrays(&square, &[[0, 1, 2], [0, 2, 3], [0, 1, 3]]).unwrap_err().to_string();
+    assert!(err.contains("edge 0-1 is used twice") && err.contains("triangle 2"), "{err}");
+}
+
+#[test]
+fn a_wide_fan_builds() {
+    // 100 000 triangles around one centre vertex: twins are found by binary search in the
+    // centre's sorted half-edge list, not by a scan per side.
+    let k = 100_000;
+    let mut p = vec![DVec2::ZERO];
+    p.extend((0..k).map(|i| {
+        let a = std::f64::consts::TAU * i as f64 / k as f64;
+        DVec2::new(a.cos(), a.sin())
+    }));
+    let t: Vec<[usize; 3]> = (0..k).map(|i| [0, 1 + i, 1 + (i + 1) % k]).collect();
+    let (m, _) = TriMesh::from_arrays(&p, &t).unwrap();
+    assert_eq!(m.num_faces(), k);
+    assert_eq!(m.euler_characteristic(), 1);
+    m.validate(Level::Topology).unwrap();
 }
 
 #[test]

@@ -515,23 +515,35 @@ impl<P: MeshPoint> TriMesh<P> {
             fill[a] += 1;
         }
         drop(fill);
-        let leaving = |a: usize| by_origin[start[a] as usize..start[a + 1] as usize].iter().map(|&e| e as usize);
+        // Each vertex's half-edges sorted by destination: a repeated side is two neighbours in
+        // its list, and a twin is a binary search (a fan of many triangles around one vertex
+        // stays cheap).
+        for a in 0..n {
+            by_origin[start[a] as usize..start[a + 1] as usize].sort_unstable_by_key(|&e| (side(e as usize).1, e));
+        }
+        let leaving = |a: usize| &by_origin[start[a] as usize..start[a + 1] as usize];
+        // The first triangle (in input order) that repeats a side of an earlier one.
+        let repeated = (0..n)
+            .flat_map(|a| leaving(a).windows(2))
+            .filter(|w| side(w[0] as usize).1 == side(w[1] as usize).1)
+            .map(|w| w[1] as usize)
+            .min();
+        if let Some(e) = repeated {
+            let (a, b) = side(e);
+            return Err(InvalidMesh(format!(
+                "edge {a}-{b} is used twice in the same direction (triangle {}): inconsistent orientation or non-manifold",
+                e / 3
+            )));
+        }
         // Faces and their half-edges in triangle order, then the boundary half-edges in side
         // order: the arenas' layout follows the input's.
         let mut hid: Vec<HalfEdgeId> = Vec::with_capacity(ne);
-        for (ti, t) in triangles.iter().enumerate() {
+        for t in triangles {
             let f = m.faces.insert(Face { half_edge: HalfEdgeId::default(), label: 0 });
             let mut hs = [HalfEdgeId::default(); 3];
             for k in 0..3 {
-                let e = 3 * ti + k;
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                if leaving(a).any(|x| x < e && side(x).1 == b) {
-                    return Err(InvalidMesh(format!(
-                        "edge {a}-{b} is used twice in the same direction (triangle {ti}): inconsistent orientation or non-manifold"
-                    )));
-                }
                 let h = m.half_edges.insert(HalfEdge {
-                    origin: ids[a],
+                    origin: ids[t[k]],
                     twin: HalfEdgeId::default(),
                     next: HalfEdgeId::default(),
                     face: Some(f),
@@ -548,8 +560,8 @@ impl<P: MeshPoint> TriMesh<P> {
         let mut boundary: Vec<(HalfEdgeId, usize)> = Vec::new();
         for (e, &h) in hid.iter().enumerate() {
             let (a, b) = side(e);
-            if let Some(x) = leaving(b).find(|&x| side(x).1 == a) {
-                m.half_edges[h].twin = hid[x];
+            if let Ok(x) = leaving(b).binary_search_by_key(&a, |&x| side(x as usize).1) {
+                m.half_edges[h].twin = hid[leaving(b)[x] as usize];
             } else {
                 let t =
                     m.half_edges.insert(HalfEdge { origin: ids[b], twin: h, next: HalfEdgeId::default(), face: None });
