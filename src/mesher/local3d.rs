@@ -578,10 +578,43 @@ struct Snapshot {
     tets: Vec<[u32; 4]>,
     tet_ids: Vec<TetId>,
     adj_start: Vec<u32>,
+    /// Neighbours of each vertex (CSR); an entry equal to its own vertex is an edge removed
+    /// since the build, skipped by every loop.
     adj: Vec<u32>,
 }
 
 impl Snapshot {
+    /// Drops the edge a-b from the neighbour lists: each entry becomes its own vertex's index,
+    /// which every loop over neighbours skips (a zero-length bar exerts no force).
+    fn remove_edge(&mut self, a: usize, b: usize) {
+        for (x, y) in [(a, b), (b, a)] {
+            let list = &mut self.adj[self.adj_start[x] as usize..self.adj_start[x + 1] as usize];
+            if let Some(e) = list.iter_mut().find(|e| **e as usize == y) {
+                *e = x as u32;
+            }
+        }
+    }
+
+    /// Drops the tets at the given positions, keeping the others in order (as a rebuild
+    /// would list them).
+    fn remove_tets(&mut self, positions: &[usize]) {
+        let mut gone = positions.to_vec();
+        gone.sort_unstable();
+        let mut next = gone.iter().peekable();
+        let mut w = 0;
+        for r in 0..self.tets.len() {
+            if next.peek() == Some(&&r) {
+                next.next();
+                continue;
+            }
+            self.tets[w] = self.tets[r];
+            self.tet_ids[w] = self.tet_ids[r];
+            w += 1;
+        }
+        self.tets.truncate(w);
+        self.tet_ids.truncate(w);
+    }
+
     fn build(m: &TetMesh) -> Snapshot {
         let mut index: SecondaryMap<TVertexId, u32> = SecondaryMap::with_capacity(m.num_vertices());
         let mut ids = Vec::with_capacity(m.num_vertices());
@@ -779,6 +812,9 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             let mut s = (0.0, 0.0);
             for k in snap.adj_start[i]..snap.adj_start[i + 1] {
                 let j = snap.adj[k as usize] as usize;
+                if j == i {
+                    continue;
+                }
                 let hb = 0.5 * (hv[i] + hv[j]);
                 s.0 += p[i].distance(p[j]).powi(3);
                 s.1 += hb * hb * hb;
@@ -907,12 +943,36 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             .filter(|x| x.1)
             .map(|x| x.0)
             .collect();
+        // Removals happen at most steps, and a snapshot rebuild at every step cost more than
+        // the forces: the snapshot is patched instead. A tet with one boundary face keeps every
+        // vertex and edge (its apex joins the boundary); with two, the edge both boundary faces
+        // share goes from the neighbour lists. Three take a vertex with them: that rebuilds.
+        let mut joined: Vec<usize> = Vec::new();
+        let mut lost: Vec<(usize, usize)> = Vec::new();
+        let mut gone: Vec<usize> = Vec::new();
         if !flat.is_empty() {
             write_back(m, &snap, &p);
             for k in flat {
-                if m.contains_tet(snap.tet_ids[k]) && m.remove_boundary_tet(snap.tet_ids[k]).is_ok() {
+                let t = snap.tet_ids[k];
+                if !m.contains_tet(t) {
+                    continue;
+                }
+                let Ok(faces) = m.check_remove_boundary_tet(t) else { continue };
+                // With two boundary faces, the edge they share lies in this tet only.
+                let local = m.tet(t).adj.map(|a| a.is_some());
+                if m.remove_boundary_tet(t).is_ok() {
                     ctx.report.removed += 1;
-                    topo_changed = true;
+                    if faces <= 2 {
+                        joined.extend(snap.tets[k].iter().map(|&i| i as usize));
+                        gone.push(k);
+                    }
+                    if faces == 2 {
+                        let mut e = snap.tets[k].iter().zip(local).filter(|x| x.1).map(|x| *x.0 as usize);
+                        lost.push((e.next().expect("edge"), e.next().expect("edge")));
+                    }
+                    if faces > 2 {
+                        topo_changed = true;
+                    }
                 }
             }
         }
@@ -951,6 +1011,20 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             snap = Snapshot::build(m);
             p = snap.ids.iter().map(|&v| m.pos(v)).collect();
             pold = p.clone();
+            hv = sizes(ctx, &p)?;
+        } else if !joined.is_empty() {
+            // The state a rebuild would give: the apexes' new kind, the tets in arena order
+            // without the removed ones, the movement references reset.
+            for i in joined {
+                if snap.kind[i] == INTERIOR && m.tag(snap.ids[i]) == VertexTag::Boundary {
+                    snap.kind[i] = BOUNDARY;
+                }
+            }
+            for (a, b) in lost {
+                snap.remove_edge(a, b);
+            }
+            snap.remove_tets(&gone);
+            pold.copy_from_slice(&p);
             hv = sizes(ctx, &p)?;
         } else if !uniform && iter % DENSITY_EVERY == 0 {
             hv = sizes(ctx, &p)?;
@@ -1838,19 +1912,29 @@ fn mean_smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bo
     let len = nb.iter().map(|&w| m.pos(w).distance(x0)).sum::<f64>() / nb.len().max(1) as f64;
     let sum_at = |x: DVec3| star_rr_sum(&star, x);
     let (t0, _) = star_min(&star, x0);
-    let floor = t0.min(RR_TQ_FLOOR);
+    // The floor as cosine bounds: no acos per tet per trial point.
+    let (cos_lo, cos_hi) = tq_cos_bounds(t0.min(RR_TQ_FLOOR));
+    let above_floor = |y: DVec3| {
+        star.iter().all(|(p, k)| {
+            let mut p = *p;
+            p[*k] = y;
+            !tq_below(p, cos_lo, cos_hi)
+        })
+    };
     let f0 = sum_at(x0);
     let (mut x, mut fx) = (x0, f0);
     let mut step = 0.05 * len;
     for _ in 0..RR_SMOOTH_STEPS {
+        // Forward differences: only an uphill direction is needed, and the line search
+        // checks every step.
         let eps = 1e-6 * len;
         let mut g = DVec3::ZERO;
         for axis in 0..3 {
             let mut e = DVec3::ZERO;
             e[axis] = eps;
-            g[axis] = (sum_at(x + e) - sum_at(x - e)) / (2.0 * eps);
+            g[axis] = (sum_at(x + e) - fx) / eps;
         }
-        let better = |y: DVec3| Some(sum_at(y)).filter(|&fy| fy > fx + 1e-9 && star_min(&star, y).0 >= floor);
+        let better = |y: DVec3| Some(sum_at(y)).filter(|&fy| fy > fx + 1e-9 && above_floor(y));
         match ascend(ctx, x, g, boundary, &mut step, 6, better)? {
             Some((y, fy)) => {
                 (x, fx) = (y, fy);
