@@ -1538,11 +1538,9 @@ fn try_swaps(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> Result<bool, Error> {
 /// its star's mean radius ratio and keeps the star's worst dihedral quality at least
 /// min(its old value, TQ_TARGET), so the extreme angles never get worse. Returns the moves.
 fn smart_laplacian(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
-    let vs: Vec<TVertexId> = m.vertex_ids().collect();
-    let mut moved = 0;
-    for v in vs {
+    coloured_smoothing(ctx, m, |ctx, m, v| {
         if !m.contains_vertex(v) || m.tag(v) == VertexTag::Fixed {
-            continue;
+            return Ok(None);
         }
         let boundary = m.tag(v) == VertexTag::Boundary;
         let nb = m.vertex_neighbours(v);
@@ -1552,25 +1550,21 @@ fn smart_laplacian(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
             .map(|&w| m.pos(w))
             .collect();
         if nb.is_empty() {
-            continue;
+            return Ok(None);
         }
         let mut y = nb.iter().copied().sum::<DVec3>() / nb.len() as f64;
         if boundary {
             match ctx.project(y)? {
                 Some(q) => y = q,
-                None => continue,
+                None => return Ok(None),
             }
         }
         let star = star_of(m, v);
         let x = m.pos(v);
         let (f0, _) = star_min(&star, x);
         let (f1, _) = star_min(&star, y);
-        if f1 >= f0.min(TQ_TARGET) && star_rr(&star, y) > star_rr(&star, x) + 1e-6 && m.relocate(v, y).is_ok() {
-            moved += 1;
-        }
-    }
-    ctx.report.smoothings += moved;
-    Ok(moved)
+        Ok((f1 >= f0.min(TQ_TARGET) && star_rr(&star, y) > star_rr(&star, x) + 1e-6).then_some(y))
+    })
 }
 
 /// The star of `v` as point quadruples with `v`'s slot marked, for moving `v` around.
@@ -1742,7 +1736,18 @@ fn mean_quality_round(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
     // new_sum - old_sum > mean (new_count - old_count).
     let q = QualityStats3::of(m);
     let mean = q.rr_mean;
-    let edges = m.edges();
+    // The edges worth a look are found in parallel on the unchanged mesh, then taken in order
+    // (each recomputed, since an earlier change may have touched it).
+    let edges: Vec<(TVertexId, TVertexId)> = {
+        let all = m.edges();
+        let mesh = &*m;
+        let pays: Vec<bool> = all
+            .par_iter()
+            .with_min_len(256)
+            .map(|&(a, b)| mesh.edge_shell_of(a, b).is_some_and(|s| mean_ring_patch(mesh, &s, mean).is_some()))
+            .collect();
+        all.into_iter().zip(pays).filter(|x| x.1).map(|x| x.0).collect()
+    };
     for (a, b) in edges {
         if !m.contains_vertex(a) || !m.contains_vertex(b) {
             continue;
@@ -1791,13 +1796,7 @@ fn mean_quality_round(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
         }
     }
     // The smoothing.
-    let vs: Vec<TVertexId> = m.vertex_ids().collect();
-    for v in vs {
-        if mean_smooth_vertex(ctx, m, v)? {
-            changes += 1;
-        }
-    }
-    Ok(changes)
+    Ok(changes + coloured_smoothing(ctx, m, mean_smooth_target)?)
 }
 
 /// The removal of an interior edge whose ring triangulation (dynamic programming on the summed
@@ -1895,16 +1894,16 @@ fn on_sharp_feature(ctx: &Ctx, m: &TetMesh, v: TVertexId) -> bool {
 /// Moves `v` uphill on the summed radius ratio of its star (finite-difference gradient,
 /// halving line search), keeping the star's worst tq at least min(old, RR_TQ_FLOOR); boundary
 /// vertices move in the tangent plane and are projected back onto d = 0.
-fn mean_smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, Error> {
+fn mean_smooth_target(ctx: &Ctx, m: &TetMesh, v: TVertexId) -> Result<Option<DVec3>, Error> {
     if !m.contains_vertex(v) || m.tag(v) == VertexTag::Fixed {
-        return Ok(false);
+        return Ok(None);
     }
     let boundary = m.tag(v) == VertexTag::Boundary;
     if boundary && !RR_SMOOTH_BOUNDARY {
-        return Ok(false);
+        return Ok(None);
     }
     if boundary && on_sharp_feature(ctx, m, v) {
-        return Ok(false);
+        return Ok(None);
     }
     let star = star_of(m, v);
     let x0 = m.pos(v);
@@ -1943,11 +1942,58 @@ fn mean_smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bo
             None => break,
         }
     }
-    if fx > f0 + 1e-7 && m.relocate(v, x).is_ok() {
-        ctx.report.smoothings += 1;
-        return Ok(true);
+    Ok((fx > f0 + 1e-7).then_some(x))
+}
+
+/// Classes of vertices no two of which share an edge (greedy colouring in arena order), so
+/// that no vertex of a class lies in the star of another: their moves are independent.
+fn independent_classes(m: &TetMesh) -> Vec<Vec<TVertexId>> {
+    let snap = Snapshot::build(m);
+    let mut colour = vec![u16::MAX; snap.ids.len()];
+    let mut classes: Vec<Vec<TVertexId>> = Vec::new();
+    let mut used: SmallVec<[u16; 64]> = SmallVec::new();
+    for i in 0..snap.ids.len() {
+        used.clear();
+        used.extend(
+            snap.adj[snap.adj_start[i] as usize..snap.adj_start[i + 1] as usize]
+                .iter()
+                .map(|&j| colour[j as usize])
+                .filter(|&c| c != u16::MAX),
+        );
+        let c = (0..).find(|c| !used.contains(c)).expect("a free colour");
+        colour[i] = c;
+        if c as usize == classes.len() {
+            classes.push(Vec::new());
+        }
+        classes[c as usize].push(snap.ids[i]);
     }
-    Ok(false)
+    classes
+}
+
+/// Moves every vertex to `target`'s point, class by class ([`independent_classes`]): a
+/// class's targets are computed in parallel on the unchanged mesh, then applied in order
+/// with the exact validity check. Deterministic; returns the moves made.
+fn coloured_smoothing(
+    ctx: &mut Ctx,
+    m: &mut TetMesh,
+    target: impl Fn(&Ctx, &TetMesh, TVertexId) -> Result<Option<DVec3>, Error> + Sync,
+) -> Result<usize, Error> {
+    let mut moved = 0;
+    for class in independent_classes(m) {
+        let targets: Vec<Option<DVec3>> = {
+            let (c, mesh) = (&*ctx, &*m);
+            class.par_iter().with_min_len(64).map(|&v| target(c, mesh, v)).collect::<Result<_, Error>>()?
+        };
+        for (&v, y) in class.iter().zip(targets) {
+            if let Some(y) = y {
+                if m.relocate(v, y).is_ok() {
+                    moved += 1;
+                }
+            }
+        }
+    }
+    ctx.report.smoothings += moved;
+    Ok(moved)
 }
 
 #[cfg(test)]
