@@ -56,8 +56,11 @@ const DENSITY_EVERY: usize = 10;
 const SPLIT_ABOVE: f64 = 1.6;
 const COLLAPSE_BELOW: f64 = 0.5;
 /// The force loop stops on a plateau: the mean radius ratio, sampled every DENSITY_EVERY
-/// iterations, gained less than this over PLATEAU_WINDOWS samples in a row.
-const QUALITY_PLATEAU: f64 = 1e-5;
+/// iterations, gained less than this over PLATEAU_WINDOWS samples in a row. At 1e-5 the ball
+/// at h0 = 0.05 ran into the 300-step cap for a final mean radius ratio of 0.9397; at 1e-4 it
+/// stops after 180 steps with 0.9393 and a wider dihedral range (38.8 to 119.8 degrees
+/// against 35.6 to 123.4), in 16.5 s instead of 22.
+const QUALITY_PLATEAU: f64 = 1e-4;
 const PLATEAU_WINDOWS: usize = 4;
 /// Tets below this dihedral quality ([`tq`]) are attacked by the sliver removal.
 const TQ_TARGET: f64 = 0.6;
