@@ -231,6 +231,37 @@ fn relocation() {
     m.validate(Level::Geometry).unwrap();
 }
 
+/// Each bad input of `from_arrays` gets its own message, naming the first bad tet in input
+/// order (the face matching runs in parallel, the report must not depend on it).
+#[test]
+fn from_arrays_names_the_problem() {
+    let p = [
+        DVec3::new(0.0, 0.0, 0.0),
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(0.0, 1.0, 0.0),
+        DVec3::new(0.0, 0.0, 1.0),
+        DVec3::new(0.0, 0.0, -1.0),
+        DVec3::new(1.0, 1.0, 0.0),
+        DVec3::new(0.2, 0.2, 2.0),
+    ];
+    let err = |pts: &[DVec3], t: &[[usize; 4]]| TetMesh::from_arrays(pts, t).unwrap_err().to_string();
+    assert!(err(&p, &[[0, 1, 2, 3], [0, 1, 2, 9]]).contains("tet 1 refers past the 7 points"));
+    assert!(err(&p, &[[0, 1, 2, 3], [0, 1, 1, 4]]).contains("tet 1 repeats a vertex"));
+    assert!(err(&p, &[[0, 1, 2, 3], [0, 1, 2, 5]]).contains("tet 1 is flat"));
+    // Three tets on face 0-1-2: the third in input order is named, also before a later bad tet.
+    let third = err(&p[..5], &[[0, 1, 2, 3], [0, 2, 1, 4], [0, 1, 2, 3], [0, 1, 2, 9]]);
+    assert!(third.contains("tet 2: a face is shared by more than two tets"), "{third}");
+    // A bad tet before the third sharer is named first.
+    let first = err(&p[..5], &[[0, 1, 2, 3], [0, 1, 1, 4], [0, 2, 1, 4], [0, 1, 2, 3]]);
+    assert!(first.contains("tet 1 repeats a vertex"), "{first}");
+    assert!(err(&p, &[[0, 1, 2, 3], [0, 2, 1, 4]]).contains("point 5 is used by no tet"));
+    // Apexes 3 and 6 on the same side of the shared face 0-1-2.
+    assert!(err(&[&p[..4], &p[6..]].concat(), &[[0, 1, 2, 3], [0, 1, 2, 4]]).contains("overlap"));
+    let mut nan = p;
+    nan[2].y = f64::NAN;
+    assert!(err(&nan, &[[0, 1, 2, 3]]).contains("point 2 is not finite"));
+}
+
 #[test]
 fn arrays_round_trip_and_boundary_surface() {
     let (m, _) = TetMesh::delaunay(&random_points_3d(300, testing::SEED)).unwrap();

@@ -526,15 +526,22 @@ fn repair_pinches(points: &[DVec3], tets: &mut Vec<[usize; 4]>) -> Result<TetMes
         }
         let mut drop = vec![false; local.len()];
         let mut any = false;
-        for (i, &v) in ids.iter().enumerate() {
-            let star = m.vertex_tets(v);
-            if star.len() < count[i] as usize {
-                any = true;
-                let small_is_walked = 2 * star.len() <= count[i] as usize;
-                for (k, t) in local.iter().enumerate() {
-                    if t.contains(&i) && (star.iter().any(|&s| index[s] == k) == small_is_walked) {
-                        drop[k] = true;
-                    }
+        // Star sizes in parallel; the few pinched vertices are handled in order.
+        let short: Vec<usize> = {
+            let mesh = &m;
+            (0..ids.len())
+                .into_par_iter()
+                .with_min_len(1024)
+                .filter(|&i| mesh.vertex_tets(ids[i]).len() < count[i] as usize)
+                .collect()
+        };
+        for i in short {
+            any = true;
+            let star = m.vertex_tets(ids[i]);
+            let small_is_walked = 2 * star.len() <= count[i] as usize;
+            for (k, t) in local.iter().enumerate() {
+                if t.contains(&i) && (star.iter().any(|&s| index[s] == k) == small_is_walked) {
+                    drop[k] = true;
                 }
             }
         }

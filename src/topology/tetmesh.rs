@@ -122,6 +122,78 @@ pub(crate) fn even_permutation(p: [usize; 4]) -> bool {
 
 /// The three keys sorted: a face's identity regardless of orientation.
 #[inline]
+/// The faces two tets share, as pairs of codes 4 tet + face, and the first tet in input order
+/// that is the third to hold some face. Faces are grouped by their smallest point with a
+/// counting sort and matched inside each group (a few dozen faces) after a small sort: no
+/// hash map, whose probes cost more than the rest of a 10^6-tet build.
+fn match_faces(n: usize, tets: &[[usize; 4]]) -> (Vec<(u32, u32)>, Option<usize>) {
+    use rayon::prelude::*;
+    let sorted = |k: usize, i: usize| {
+        let f = FACE_VERTICES[i].map(|x| tets[k][x] as u32);
+        let (mut a, mut b, mut c) = (f[0], f[1], f[2]);
+        if a > b {
+            std::mem::swap(&mut a, &mut b);
+        }
+        if b > c {
+            std::mem::swap(&mut b, &mut c);
+        }
+        if a > b {
+            std::mem::swap(&mut a, &mut b);
+        }
+        (a, b, c)
+    };
+    let mut start = vec![0u32; n + 1];
+    for k in 0..tets.len() {
+        for i in 0..4 {
+            start[sorted(k, i).0 as usize + 1] += 1;
+        }
+    }
+    for a in 0..n {
+        start[a + 1] += start[a];
+    }
+    let mut fill = start.clone();
+    let mut rec = vec![(0u32, 0u32, 0u32); 4 * tets.len()];
+    for k in 0..tets.len() {
+        for i in 0..4 {
+            let (a, b, c) = sorted(k, i);
+            rec[fill[a as usize] as usize] = (b, c, (4 * k + i) as u32);
+            fill[a as usize] += 1;
+        }
+    }
+    const BLOCK: usize = 1024;
+    let parts: Vec<(Vec<(u32, u32)>, Option<usize>)> = (0..n.div_ceil(BLOCK))
+        .into_par_iter()
+        .map(|blk| {
+            let mut pairs = Vec::new();
+            let mut third: Option<usize> = None;
+            let mut group = Vec::new();
+            for a in blk * BLOCK..((blk + 1) * BLOCK).min(n) {
+                group.clear();
+                group.extend_from_slice(&rec[start[a] as usize..start[a + 1] as usize]);
+                group.sort_unstable();
+                let mut r = 0;
+                while r < group.len() {
+                    let mut e = r + 1;
+                    while e < group.len() && (group[e].0, group[e].1) == (group[r].0, group[r].1) {
+                        e += 1;
+                    }
+                    if e - r >= 2 {
+                        pairs.push((group[r].2, group[r + 1].2));
+                    }
+                    if e - r >= 3 {
+                        let ti = (group[r + 2].2 >> 2) as usize;
+                        third = Some(third.map_or(ti, |x| x.min(ti)));
+                    }
+                    r = e;
+                }
+            }
+            (pairs, third)
+        })
+        .collect();
+    let third = parts.iter().filter_map(|p| p.1).min();
+    (parts.into_iter().flat_map(|p| p.0).collect(), third)
+}
+
 pub(crate) fn face_key(mut f: [TVertexId; 3]) -> [TVertexId; 3] {
     if f[0] > f[1] {
         f.swap(0, 1);
@@ -471,67 +543,79 @@ impl TetMesh {
     /// tets. Returns the mesh and the vertex key of each point.
     pub fn from_arrays(points: &[DVec3], tets: &[[usize; 4]]) -> Result<(Self, Vec<TVertexId>), crate::Error> {
         use crate::Error::InvalidMesh;
-        let mut m = TetMesh::with_capacity(points.len());
-        let mut ids = Vec::with_capacity(points.len());
-        for (i, &p) in points.iter().enumerate() {
-            if !p.is_finite() {
-                return Err(InvalidMesh(format!("point {i} is not finite")));
-            }
-            ids.push(m.vertices.insert(TVertex { pos: p, tet: TetId::null(), tag: VertexTag::Interior }));
+        use rayon::prelude::*;
+        if let Some(i) = points.iter().position(|p| !p.is_finite()) {
+            return Err(InvalidMesh(format!("point {i} is not finite")));
         }
-        let mut faces: crate::FastMap<[TVertexId; 3], (TetId, u8)> =
-            crate::FastMap::with_capacity_and_hasher(tets.len() * 2, Default::default());
-        for (ti, t) in tets.iter().enumerate() {
+        // Face codes (4 tet + face) and point indices are u32 below.
+        if points.len() >= u32::MAX as usize || tets.len() >= (1 << 30) {
+            return Err(InvalidMesh(format!("{} points and {} tets: past the u32 indices", points.len(), tets.len())));
+        }
+        // Checked and oriented in parallel; errors are reported for the first bad tet in input
+        // order, as a sequential build would meet them.
+        let check = |ti: usize, t: &[usize; 4]| -> Result<[usize; 4], String> {
             let mut t = *t;
             if t.iter().any(|&i| i >= points.len()) {
-                return Err(InvalidMesh(format!("tet {ti} refers past the {} points", points.len())));
+                return Err(format!("tet {ti} refers past the {} points", points.len()));
             }
             if (0..4).any(|i| (i + 1..4).any(|j| t[i] == t[j])) {
-                return Err(InvalidMesh(format!("tet {ti} repeats a vertex")));
+                return Err(format!("tet {ti} repeats a vertex"));
             }
             match orient3d(points[t[0]], points[t[1]], points[t[2]], points[t[3]]) {
                 Sign::Positive => {}
                 Sign::Negative => t.swap(2, 3),
-                Sign::Zero => return Err(InvalidMesh(format!("tet {ti} is flat"))),
+                Sign::Zero => return Err(format!("tet {ti} is flat")),
             }
-            let v = [ids[t[0]], ids[t[1]], ids[t[2]], ids[t[3]]];
+            Ok(t)
+        };
+        let oriented: Vec<[usize; 4]> = tets
+            .par_iter()
+            .enumerate()
+            .with_min_len(4096)
+            .map(|(ti, t)| check(ti, t).unwrap_or([usize::MAX; 4]))
+            .collect();
+        let valid = oriented.par_iter().position_first(|t| t[0] == usize::MAX).unwrap_or(tets.len());
+        let (pairs, third) = match_faces(points.len(), &oriented[..valid]);
+        if let Some(ti) = third {
+            return Err(InvalidMesh(format!("tet {ti}: a face is shared by more than two tets")));
+        }
+        if valid < tets.len() {
+            return Err(InvalidMesh(check(valid, &tets[valid]).expect_err("the first bad tet")));
+        }
+        let mut m = TetMesh::with_capacity(points.len());
+        let ids: Vec<TVertexId> = points
+            .iter()
+            .map(|&p| m.vertices.insert(TVertex { pos: p, tet: TetId::null(), tag: VertexTag::Interior }))
+            .collect();
+        let mut tet_ids = Vec::with_capacity(oriented.len());
+        for t in &oriented {
+            let v = t.map(|i| ids[i]);
             let id = m.tets.insert(Tet { v, adj: [None; 4], label: 0 });
             for &x in &v {
                 m.vertices[x].tet = id;
             }
-            for i in 0..4 {
-                let key = face_key(m.face_vertices(id, i));
-                match faces.remove(&key) {
-                    Some((u, j)) => {
-                        if m.tets[u].adj[j as usize].is_some() {
-                            return Err(InvalidMesh(format!("tet {ti}: a face is shared by more than two tets")));
-                        }
-                        m.tets[u].adj[j as usize] = Some((id, i as u8));
-                        m.tets[id].adj[i] = Some((u, j));
-                        // Mark the face as used twice so a third tet is caught.
-                        faces.insert(key, (u, j));
-                    }
-                    None => {
-                        faces.insert(key, (id, i as u8));
-                    }
-                }
-            }
+            tet_ids.push(id);
+        }
+        for &(a, b) in &pairs {
+            let (ta, fa, tb, fb) = (tet_ids[(a >> 2) as usize], a & 3, tet_ids[(b >> 2) as usize], b & 3);
+            m.tets[ta].adj[fa as usize] = Some((tb, fb as u8));
+            m.tets[tb].adj[fb as usize] = Some((ta, fa as u8));
         }
         if let Some(i) = ids.iter().position(|&v| m.vertices[v].tet.is_null()) {
             return Err(InvalidMesh(format!("point {i} is used by no tet")));
         }
         // Two tets on one face must lie on opposite sides of it.
-        for (t, tx) in m.tets.iter() {
-            for i in 0..4 {
-                if let Some((u, j)) = tx.adj[i] {
-                    let f = m.face_vertices(t, i);
-                    let [a, b, c] = [m.pos(f[0]), m.pos(f[1]), m.pos(f[2])];
-                    let e = m.pos(m.tets[u].v[j as usize]);
-                    if orient3d(a, b, c, e) != Sign::Positive {
-                        return Err(InvalidMesh("two tets overlap across a shared face".into()));
-                    }
-                }
-            }
+        let apart = |t: TetId, i: usize, u: TetId, j: usize| {
+            let f = m.face_vertices(t, i).map(|v| m.pos(v));
+            orient3d(f[0], f[1], f[2], m.pos(m.tets[u].v[j])) == Sign::Positive
+        };
+        let overlap = pairs.par_iter().with_min_len(4096).any(|&(a, b)| {
+            let (ta, fa, tb, fb) =
+                (tet_ids[(a >> 2) as usize], (a & 3) as usize, tet_ids[(b >> 2) as usize], (b & 3) as usize);
+            !apart(ta, fa, tb, fb) || !apart(tb, fb, ta, fa)
+        });
+        if overlap {
+            return Err(InvalidMesh("two tets overlap across a shared face".into()));
         }
         Ok((m, ids))
     }
