@@ -94,8 +94,9 @@ const RR_ROUND_GAIN: f64 = 2.5e-3;
 const RR_TQ_FLOOR: f64 = 0.55;
 /// Least gain in summed radius ratio for a mean-quality swap.
 const RR_GAIN: f64 = 1e-4;
-/// Gradient steps per vertex in the mean-quality smoothing.
-const RR_SMOOTH_STEPS: usize = 10;
+/// Gradient steps per vertex in the mean-quality smoothing. Four: ten gave the same mean
+/// radius ratio to 1e-4 on both quality examples and at h0 = 0.05, at 1.5x the cost.
+const RR_SMOOTH_STEPS: usize = 4;
 /// Whether boundary vertices take part in the mean-quality smoothing.
 const RR_SMOOTH_BOUNDARY: bool = true;
 /// Boundary faces turning more than this (degrees) from the surface normal mark a sharp edge.
