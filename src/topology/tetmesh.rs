@@ -120,13 +120,14 @@ pub(crate) fn even_permutation(p: [usize; 4]) -> bool {
     inv % 2 == 0
 }
 
-/// The three keys sorted: a face's identity regardless of orientation.
-#[inline]
+/// Shared faces as pairs of face codes, and the third tet on a face if any (see [`match_faces`]).
+type FaceMatches = (Vec<(u32, u32)>, Option<usize>);
+
 /// The faces two tets share, as pairs of codes 4 tet + face, and the first tet in input order
 /// that is the third to hold some face. Faces are grouped by their smallest point with a
 /// counting sort and matched inside each group (a few dozen faces) after a small sort: no
 /// hash map, whose probes cost more than the rest of a 10^6-tet build.
-fn match_faces(n: usize, tets: &[[usize; 4]]) -> (Vec<(u32, u32)>, Option<usize>) {
+fn match_faces(n: usize, tets: &[[usize; 4]]) -> FaceMatches {
     use rayon::prelude::*;
     let sorted = |k: usize, i: usize| {
         let f = FACE_VERTICES[i].map(|x| tets[k][x] as u32);
@@ -161,7 +162,7 @@ fn match_faces(n: usize, tets: &[[usize; 4]]) -> (Vec<(u32, u32)>, Option<usize>
         }
     }
     const BLOCK: usize = 1024;
-    let parts: Vec<(Vec<(u32, u32)>, Option<usize>)> = (0..n.div_ceil(BLOCK))
+    let parts: Vec<FaceMatches> = (0..n.div_ceil(BLOCK))
         .into_par_iter()
         .map(|blk| {
             let mut pairs = Vec::new();
@@ -194,6 +195,8 @@ fn match_faces(n: usize, tets: &[[usize; 4]]) -> (Vec<(u32, u32)>, Option<usize>
     (parts.into_iter().flat_map(|p| p.0).collect(), third)
 }
 
+/// The three keys sorted: a face's identity regardless of orientation.
+#[inline]
 pub(crate) fn face_key(mut f: [TVertexId; 3]) -> [TVertexId; 3] {
     if f[0] > f[1] {
         f.swap(0, 1);
