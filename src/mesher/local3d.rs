@@ -1479,6 +1479,9 @@ fn improve(ctx: &mut Ctx, m: &mut TetMesh, round: usize) -> Result<usize, Error>
     let mut changes = 0;
     let ts: Vec<TetId> = bad.iter().map(|b| b.1).collect();
     let promising = swap_candidates(ctx, m, &ts)?;
+    // Swaps first, worst tet first; then the vertices of the tets still bad are smoothed by
+    // independent classes (in parallel); then, after the first round, perturbed.
+    let mut left: Vec<TetId> = Vec::new();
     for (t, hope) in ts.into_iter().zip(promising) {
         if !m.contains_tet(t) || tq(m.tet_points(t)) >= TQ_TARGET {
             continue;
@@ -1487,21 +1490,27 @@ fn improve(ctx: &mut Ctx, m: &mut TetMesh, round: usize) -> Result<usize, Error>
             changes += 1;
             continue;
         }
-        let vs = m.tet(t).v;
-        let mut moved = false;
-        for v in vs {
-            if smooth_vertex(ctx, m, v)? {
-                changes += 1;
-                moved = true;
+        left.push(t);
+    }
+    let mut seen: SecondaryMap<TVertexId, ()> = SecondaryMap::new();
+    let mut verts: Vec<TVertexId> = Vec::new();
+    for &t in &left {
+        if m.contains_tet(t) {
+            for v in m.tet(t).v {
+                if seen.insert(v, ()).is_none() {
+                    verts.push(v);
+                }
             }
         }
-        if moved && m.contains_tet(t) && tq(m.tet_points(t)) >= TQ_TARGET {
-            continue;
-        }
-        if round > 0 && m.contains_tet(t) {
-            for v in vs {
-                if perturb_vertex(ctx, m, v)? {
-                    changes += 1;
+    }
+    changes += coloured_smoothing(ctx, m, Some(&verts), smooth_target)?;
+    if round > 0 {
+        for t in left {
+            if m.contains_tet(t) && tq(m.tet_points(t)) < TQ_TARGET {
+                for v in m.tet(t).v {
+                    if perturb_vertex(ctx, m, v)? {
+                        changes += 1;
+                    }
                 }
             }
         }
@@ -1618,7 +1627,7 @@ fn swap_candidates(ctx: &Ctx, m: &TetMesh, cands: &[TetId]) -> Result<Vec<bool>,
 /// its star's mean radius ratio and keeps the star's worst dihedral quality at least
 /// min(its old value, TQ_TARGET), so the extreme angles never get worse. Returns the moves.
 fn smart_laplacian(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
-    coloured_smoothing(ctx, m, |ctx, m, v| {
+    coloured_smoothing(ctx, m, None, |ctx, m, v| {
         if !m.contains_vertex(v) || m.tag(v) == VertexTag::Fixed {
             return Ok(None);
         }
@@ -1675,8 +1684,19 @@ fn star_min(star: &[([DVec3; 4], usize)], x: DVec3) -> (f64, usize) {
 /// (finite-difference gradient, halving line search) while the star's worst tq improves.
 /// Boundary vertices move in the tangent plane and are projected back onto d = 0.
 fn smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, Error> {
+    if let Some(x) = smooth_target(ctx, m, v)? {
+        if m.relocate(v, x).is_ok() {
+            ctx.report.smoothings += 1;
+            return Ok(true);
+        }
+    }
+    Ok(false)
+}
+
+/// Where [`smooth_vertex`] would move `v`, if anywhere (read-only).
+fn smooth_target(ctx: &Ctx, m: &TetMesh, v: TVertexId) -> Result<Option<DVec3>, Error> {
     if !m.contains_vertex(v) || m.tag(v) == VertexTag::Fixed {
-        return Ok(false);
+        return Ok(None);
     }
     let boundary = m.tag(v) == VertexTag::Boundary;
     let star = star_of(m, v);
@@ -1705,11 +1725,7 @@ fn smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, E
             None => break,
         }
     }
-    if fx > f0 + 1e-9 && star_rr(&star, x) > star_rr(&star, x0) - RR_SLACK && m.relocate(v, x).is_ok() {
-        ctx.report.smoothings += 1;
-        return Ok(true);
-    }
-    Ok(false)
+    Ok((fx > f0 + 1e-9 && star_rr(&star, x) > star_rr(&star, x0) - RR_SLACK).then_some(x))
 }
 
 /// Mean radius ratio of the star with `v` at `x`: a move for the worst tet may not cost the
@@ -1876,7 +1892,7 @@ fn mean_quality_round(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
         }
     }
     // The smoothing.
-    Ok(changes + coloured_smoothing(ctx, m, mean_smooth_target)?)
+    Ok(changes + coloured_smoothing(ctx, m, None, mean_smooth_target)?)
 }
 
 /// The removal of an interior edge whose ring triangulation (dynamic programming on the summed
@@ -2025,9 +2041,31 @@ fn mean_smooth_target(ctx: &Ctx, m: &TetMesh, v: TVertexId) -> Result<Option<DVe
     Ok((fx > f0 + 1e-7).then_some(x))
 }
 
-/// Classes of vertices no two of which share an edge (greedy colouring in arena order), so
-/// that no vertex of a class lies in the star of another: their moves are independent.
-fn independent_classes(m: &TetMesh) -> Vec<Vec<TVertexId>> {
+/// Classes of vertices (all, or those of `subset`) no two of which share an edge (greedy
+/// colouring in arena or subset order), so that no vertex of a class lies in the star of
+/// another: their moves are independent.
+fn independent_classes(m: &TetMesh, subset: Option<&[TVertexId]>) -> Vec<Vec<TVertexId>> {
+    if let Some(verts) = subset {
+        // Colours within the subset only; neighbours found in parallel.
+        let nbs: Vec<SmallVec<[TVertexId; 32]>> = verts.par_iter().map(|&v| m.vertex_neighbours(v)).collect();
+        let mut colour: SecondaryMap<TVertexId, u16> = SecondaryMap::with_capacity(verts.len());
+        let mut classes: Vec<Vec<TVertexId>> = Vec::new();
+        let mut used: SmallVec<[u16; 64]> = SmallVec::new();
+        for (&v, nb) in verts.iter().zip(&nbs) {
+            if colour.contains_key(v) {
+                continue;
+            }
+            used.clear();
+            used.extend(nb.iter().filter_map(|&w| colour.get(w).copied()));
+            let c = (0..).find(|c| !used.contains(c)).expect("a free colour");
+            colour.insert(v, c);
+            if c as usize == classes.len() {
+                classes.push(Vec::new());
+            }
+            classes[c as usize].push(v);
+        }
+        return classes;
+    }
     let snap = Snapshot::build(m);
     let mut colour = vec![u16::MAX; snap.ids.len()];
     let mut classes: Vec<Vec<TVertexId>> = Vec::new();
@@ -2056,10 +2094,11 @@ fn independent_classes(m: &TetMesh) -> Vec<Vec<TVertexId>> {
 fn coloured_smoothing(
     ctx: &mut Ctx,
     m: &mut TetMesh,
+    subset: Option<&[TVertexId]>,
     target: impl Fn(&Ctx, &TetMesh, TVertexId) -> Result<Option<DVec3>, Error> + Sync,
 ) -> Result<usize, Error> {
     let mut moved = 0;
-    for class in independent_classes(m) {
+    for class in independent_classes(m, subset) {
         let targets: Vec<Option<DVec3>> = {
             let (c, mesh) = (&*ctx, &*m);
             class.par_iter().with_min_len(64).map(|&v| target(c, mesh, v)).collect::<Result<_, Error>>()?
