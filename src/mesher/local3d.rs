@@ -92,6 +92,10 @@ const RR_ROUNDS: usize = 4;
 const RR_ROUND_GAIN: f64 = 2.5e-3;
 /// The mean-quality pass keeps every local worst dihedral quality at least min(old, this).
 const RR_TQ_FLOOR: f64 = 0.55;
+/// The mean-quality swaps look at the edges and faces of tets this far below the mean radius
+/// ratio. Over all edges and faces, at 10^6 tets, they took 2.8 s a round and changed almost
+/// nothing; with 0.1 the quality examples keep their rr mean to 3e-4.
+const RR_SWAP_MARGIN: f64 = 0.1;
 /// Least gain in summed radius ratio for a mean-quality swap.
 const RR_GAIN: f64 = 1e-4;
 /// Gradient steps per vertex in the mean-quality smoothing. Four: ten gave the same mean
@@ -1861,13 +1865,27 @@ fn perturb_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, 
 fn mean_quality_round(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
     let mut changes = 0;
     // The swaps: a change replacing old tets by new ones raises the mean when
-    // new_sum - old_sum > mean (new_count - old_count).
-    let q = QualityStats3::of(m);
-    let mean = q.rr_mean;
+    // new_sum - old_sum > mean (new_count - old_count). Only swaps that replace a tet well
+    // below the mean pay: the candidates are the edges and faces of those tets.
+    let ids: Vec<TetId> = m.tet_ids().collect();
+    let rrs: Vec<f64> = {
+        let mesh = &*m;
+        ids.par_iter().with_min_len(CHUNK).map(|&t| crate::quality::tet_radius_ratio(mesh.tet_points(t))).collect()
+    };
+    let mean = rrs.iter().sum::<f64>() / rrs.len().max(1) as f64;
+    let poor: Vec<TetId> = ids.iter().zip(&rrs).filter(|x| *x.1 < mean - RR_SWAP_MARGIN).map(|x| *x.0).collect();
     // The edges worth a look are found in parallel on the unchanged mesh, then taken in order
     // (each recomputed, since an earlier change may have touched it).
     let edges: Vec<(TVertexId, TVertexId)> = {
-        let all = m.edges();
+        let mut all: Vec<(TVertexId, TVertexId)> = poor
+            .iter()
+            .flat_map(|&t| {
+                let v = m.tet(t).v;
+                EDGE_VERTICES.map(|[i, j]| (v[i].min(v[j]), v[i].max(v[j])))
+            })
+            .collect();
+        all.sort_unstable();
+        all.dedup();
         let mesh = &*m;
         let pays: Vec<bool> = all
             .par_iter()
@@ -1887,15 +1905,14 @@ fn mean_quality_round(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
             changes += 1;
         }
     }
-    let tets: Vec<TetId> = m.tet_ids().collect();
-    for t in tets {
+    for t in poor {
         for f in 0..4 {
             if !m.contains_tet(t) {
                 break;
             }
             let tx = *m.tet(t);
             let Some((u, j)) = tx.adj[f] else { continue };
-            if u < t || m.tet(u).label != tx.label {
+            if m.tet(u).label != tx.label {
                 continue;
             }
             let d = m.pos(tx.v[f]);
