@@ -1481,9 +1481,13 @@ fn improve(ctx: &mut Ctx, m: &mut TetMesh, round: usize) -> Result<usize, Error>
     let ids: Vec<TetId> = m.tet_ids().collect();
     let mut bad: Vec<(f64, TetId)> = {
         let mesh = &*m;
+        let (cl, ch) = tq_cos_bounds(TQ_TARGET);
         ids.par_iter()
             .with_min_len(CHUNK)
-            .map(|&t| (tq(mesh.tet_points(t)), t))
+            .filter_map(|&t| {
+                let p = mesh.tet_points(t);
+                tq_below(p, cl, ch).then(|| (tq(p), t))
+            })
             .filter(|&(q, _)| q < TQ_TARGET)
             .collect()
     };
