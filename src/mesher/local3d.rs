@@ -1494,8 +1494,10 @@ fn improve(ctx: &mut Ctx, m: &mut TetMesh, round: usize) -> Result<usize, Error>
     bad.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
     // The mean-quality pass after the polish lets any tet down to RR_TQ_FLOOR: polishing the
     // worst tet above that is undone, and so are rounds that no longer raise the worst tet.
+    // Rounds 0 and 1 are always made: perturbations start in round 1, and a worst tet that
+    // swaps and smoothing leave stuck often moves only then.
     let worst = bad.first().map_or(1.0, |b| b.0);
-    if worst >= RR_TQ_FLOOR || worst < ctx.polish_worst + POLISH_STALL {
+    if worst >= RR_TQ_FLOOR || (round >= 2 && worst < ctx.polish_worst + POLISH_STALL) {
         return Ok(0);
     }
     ctx.polish_worst = worst;
