@@ -1641,8 +1641,9 @@ fn try_swaps(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> Result<bool, Error> {
     Ok(true)
 }
 
-/// The tets of `cands` for which [`find_swap`] finds something on the mesh as it is, found in
-/// parallel: the rest need not be tried in order (most candidates are, at 10^6 tets).
+/// Whether [`find_swap`] finds something for each tet of `cands` on the mesh as it is, in
+/// parallel. The polish then tries in order only the tets marked true; at 10^6 tets most
+/// candidates are not.
 fn swap_candidates(ctx: &Ctx, m: &TetMesh, cands: &[TetId]) -> Result<Vec<bool>, Error> {
     cands.par_iter().with_min_len(64).map(|&t| Ok(m.contains_tet(t) && find_swap(ctx, m, t)?.is_some())).collect()
 }
