@@ -86,14 +86,18 @@ fn check_size(r: &Row) {
     assert!(r.size_dev <= 0.09, "size deviation {:.2}% <= 9%", 100.0 * r.size_dev);
 }
 
+/// Every target of the issue.
+fn check_all(r: &Row) {
+    check_basic(r);
+    check_quality(r);
+    check_mean(r);
+    check_size(r);
+}
+
 #[test]
 fn unit_ball_h015() {
     let (d, o) = ball();
-    let r = measure("unit ball, h0 = 0.15", &d, &o, 4.0 / 3.0 * PI);
-    check_basic(&r);
-    check_quality(&r);
-    check_mean(&r);
-    check_size(&r);
+    check_all(&measure("unit ball, h0 = 0.15", &d, &o, 4.0 / 3.0 * PI));
 }
 
 /// The same ball given as an expression, as `trussmesh mesh --dim 3 --domain ...` gives it
@@ -104,11 +108,7 @@ fn unit_ball_from_an_expression_h015() {
     let expr = trussmesh::expr::Expr::parse("sqrt(x^2+y^2+z^2)-1").expect("parses");
     let d = trussmesh::expr::ExprImplicit3 { expr, distance: true };
     let (_, o) = ball();
-    let r = measure("unit ball as an expression, h0 = 0.15", &d, &o, 4.0 / 3.0 * PI);
-    check_basic(&r);
-    check_quality(&r);
-    check_mean(&r);
-    check_size(&r);
+    check_all(&measure("unit ball as an expression, h0 = 0.15", &d, &o, 4.0 / 3.0 * PI));
 }
 
 #[test]
