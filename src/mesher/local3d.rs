@@ -29,7 +29,7 @@ use super::MeshOutput3;
 use crate::geometry::project::{project3, ProjectError, Projection};
 use crate::geometry::Implicit3;
 use crate::predicates::{orient3d, Sign};
-use crate::topology::{Level, TVertexId, TetId, TetMesh, TetPatch, VertexTag, EDGE_VERTICES};
+use crate::topology::{Journal, Level, TVertexId, TetId, TetMesh, TetPatch, VertexTag, EDGE_VERTICES};
 use crate::Error;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -611,16 +611,31 @@ fn repair_pinches(points: &[DVec3], tets: &mut Vec<[usize; 4]>) -> Result<TetMes
 
 // ============================ snapshot ============================
 
-/// Compact arrays of the mesh for the force loop, rebuilt when the topology changes.
+/// Free entries at the end of each neighbour row of the snapshot, so that a refresh after
+/// local flips rewrites the touched rows in place.
+const ROW_SLACK: usize = 4;
+
+/// Compact arrays of the mesh for the force loop, refreshed when the topology changes.
 struct Snapshot {
     ids: Vec<TVertexId>,
+    /// Position of each vertex in `ids`.
+    index: SecondaryMap<TVertexId, u32>,
     kind: Vec<u8>,
     tets: Vec<[u32; 4]>,
     tet_ids: Vec<TetId>,
     adj_start: Vec<u32>,
-    /// Neighbours of each vertex (CSR); an entry equal to its own vertex is an edge removed
-    /// since the build, skipped by every loop.
+    /// Neighbours of each vertex (CSR), in increasing order; an entry equal to its own vertex
+    /// (ROW_SLACK of them at the end of each row, and edges removed since the build) is
+    /// skipped by every loop.
     adj: Vec<u32>,
+}
+
+fn kind_of(tag: VertexTag) -> u8 {
+    match tag {
+        VertexTag::Fixed => FIXED,
+        VertexTag::Boundary => BOUNDARY,
+        _ => INTERIOR,
+    }
 }
 
 impl Snapshot {
@@ -662,11 +677,7 @@ impl Snapshot {
         for v in m.vertex_ids() {
             index.insert(v, ids.len() as u32);
             ids.push(v);
-            kind.push(match m.tag(v) {
-                VertexTag::Fixed => FIXED,
-                VertexTag::Boundary => BOUNDARY,
-                _ => INTERIOR,
-            });
+            kind.push(kind_of(m.tag(v)));
         }
         let mut tets = Vec::with_capacity(m.num_tets());
         let mut tet_ids = Vec::with_capacity(m.num_tets());
@@ -682,12 +693,15 @@ impl Snapshot {
         let n = ids.len();
         let inc = crate::topology::Incidence::new(n, &tets);
         const BLOCK: usize = 1024;
+        // Jobs of at least 16 blocks: each job clears a stamp array of n entries.
         let blocks: Vec<(Vec<u32>, Vec<u32>)> = (0..n.div_ceil(BLOCK))
             .into_par_iter()
+            .with_min_len(16)
             .map_init(
                 || vec![u32::MAX; n],
                 |seen, b| {
-                    let (mut flat, mut counts) = (Vec::with_capacity(16 * BLOCK), Vec::with_capacity(BLOCK));
+                    let (mut flat, mut counts) =
+                        (Vec::with_capacity((16 + ROW_SLACK) * BLOCK), Vec::with_capacity(BLOCK));
                     for i in b * BLOCK..((b + 1) * BLOCK).min(n) {
                         let first = flat.len();
                         for &k in inc.of(i) {
@@ -699,6 +713,7 @@ impl Snapshot {
                             }
                         }
                         flat[first..].sort_unstable();
+                        flat.extend([i as u32; ROW_SLACK]);
                         counts.push((flat.len() - first) as u32);
                     }
                     (flat, counts)
@@ -714,7 +729,48 @@ impl Snapshot {
             }
             adj.extend_from_slice(flat);
         }
-        Snapshot { ids, kind, tets, tet_ids, adj_start, adj }
+        Snapshot { ids, index, kind, tets, tet_ids, adj_start, adj }
+    }
+
+    /// Brings the snapshot up to date after topology changes that added or removed no vertex:
+    /// the kinds and the tets are read again, and only the rows of the vertices the journal
+    /// names are recomputed. The result equals a rebuild's (the loops skip the self-entries).
+    /// False when it cannot (a vertex came or went, or a row outgrew its slack): rebuild then.
+    fn refresh(&mut self, m: &TetMesh, journal: &Journal) -> bool {
+        if journal.vertices_changed || m.num_vertices() != self.ids.len() {
+            return false;
+        }
+        for (k, &v) in self.ids.iter().enumerate() {
+            self.kind[k] = kind_of(m.tag(v));
+        }
+        self.tets.clear();
+        self.tet_ids.clear();
+        for t in m.tet_ids() {
+            self.tets.push(m.tet(t).v.map(|x| self.index[x]));
+            self.tet_ids.push(t);
+        }
+        let mut touched: Vec<u32> = journal.touched.iter().filter_map(|&v| self.index.get(v).copied()).collect();
+        touched.sort_unstable();
+        touched.dedup();
+        let rows: Vec<SmallVec<[u32; 32]>> = touched
+            .par_iter()
+            .with_min_len(64)
+            .map(|&i| {
+                let mut r: SmallVec<[u32; 32]> =
+                    m.vertex_neighbours(self.ids[i as usize]).iter().map(|&w| self.index[w]).collect();
+                r.sort_unstable();
+                r
+            })
+            .collect();
+        for (&i, r) in touched.iter().zip(&rows) {
+            let row = &mut self.adj[self.adj_start[i as usize] as usize..self.adj_start[i as usize + 1] as usize];
+            if r.len() > row.len() {
+                return false;
+            }
+            row[..r.len()].copy_from_slice(r);
+            row[r.len()..].fill(i);
+        }
+        true
     }
 }
 
@@ -836,6 +892,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
     let opts = ctx.opts;
     let h0 = opts.h0;
     let mut snap = Snapshot::build(m);
+    m.open_journal();
     let mut p: Vec<DVec3> = snap.ids.iter().map(|&v| m.pos(v)).collect();
     let mut pold = p.clone();
     let uniform = opts.size.is_none();
@@ -1057,7 +1114,13 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             if m.num_tets() as u64 > opts.max_elements {
                 return Err(Error::TooManyElements { estimated: m.num_tets() as u64, limit: opts.max_elements });
             }
-            snap = Snapshot::build(m);
+            // Local flips and swaps alone refresh the touched rows; a vertex added or
+            // removed rebuilds.
+            let journal = m.take_journal().unwrap_or_default();
+            if !snap.refresh(m, &journal) {
+                snap = Snapshot::build(m);
+            }
+            m.open_journal();
             p = snap.ids.iter().map(|&v| m.pos(v)).collect();
             pold = p.clone();
             hv = sizes(ctx, &p)?;
@@ -1137,6 +1200,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         }
     }
     write_back(m, &snap, &p);
+    m.take_journal();
     ctx.report.iterations = iter;
     ctx.report.converged = converged;
     if !converged {
@@ -2164,5 +2228,65 @@ mod tests {
             }
         }
         assert!(seen[0] > 0 && seen[1] > 0, "both sides sampled: {seen:?}");
+    }
+
+    /// The neighbour rows without their self-entries.
+    fn rows(s: &Snapshot) -> Vec<Vec<u32>> {
+        (0..s.ids.len())
+            .map(|i| {
+                s.adj[s.adj_start[i] as usize..s.adj_start[i + 1] as usize]
+                    .iter()
+                    .copied()
+                    .filter(|&j| j as usize != i)
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_refreshed_snapshot_equals_a_rebuilt_one() {
+        let mut rng = crate::testing::Rng::new(crate::testing::SEED);
+        let pts: Vec<DVec3> = (0..400).map(|_| DVec3::new(rng.f64(), rng.f64(), rng.f64())).collect();
+        let (mut m, _) = TetMesh::delaunay(&pts).expect("delaunay");
+        m.tag_boundary_vertices();
+        let mut snap = Snapshot::build(&m);
+        m.open_journal();
+        // 2-3 flips (each adds an edge) and tets taken off the boundary (which retag vertices).
+        let (mut flips, mut removed) = (0, 0);
+        let ids: Vec<TetId> = m.tet_ids().collect();
+        for &t in &ids {
+            if removed < 5 && m.check_remove_boundary_tet(t).is_ok_and(|f| f <= 2) {
+                removed += usize::from(m.remove_boundary_tet(t).is_ok());
+            }
+        }
+        for &t in &ids {
+            if !m.contains_tet(t) {
+                continue;
+            }
+            if (0..4).any(|i| m.flip23(t, i).is_ok()) {
+                flips += 1;
+            }
+            if flips >= 40 {
+                break;
+            }
+        }
+        assert!(flips >= 40 && removed > 0, "{flips} flips, {removed} removals");
+        let journal = m.take_journal().expect("open journal");
+        assert!(!journal.vertices_changed);
+        assert!(snap.refresh(&m, &journal), "no row outgrows its slack here");
+        let fresh = Snapshot::build(&m);
+        assert_eq!(snap.ids, fresh.ids);
+        assert_eq!(snap.kind, fresh.kind);
+        assert_eq!(snap.tets, fresh.tets);
+        assert_eq!(snap.tet_ids, fresh.tet_ids);
+        assert_eq!(rows(&snap), rows(&fresh));
+        // A split adds a vertex: the journal says so and the refresh declines.
+        m.open_journal();
+        let t = m.tet_ids().next().expect("a tet");
+        let [a, b] = EDGE_VERTICES[0].map(|i| m.pos(m.tet(t).v[i]));
+        m.split_edge(t, 0, (a + b) * 0.5).expect("split");
+        let journal = m.take_journal().expect("open journal");
+        assert!(journal.vertices_changed);
+        assert!(!snap.refresh(&m, &journal));
     }
 }

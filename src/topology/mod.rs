@@ -28,7 +28,9 @@ pub use incidence::{Incidence, VertexIndex};
 pub use queue::QualityQueue;
 pub use tet_delaunay::{hilbert_order_3d, hilbert_sort_3d};
 pub use tet_ops::{Flip23Plan, Flip32Plan, TetPatch};
-pub use tetmesh::{EdgeShell, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_OPPOSITE, EDGE_VERTICES, FACE_VERTICES};
+pub use tetmesh::{
+    EdgeShell, Journal, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_OPPOSITE, EDGE_VERTICES, FACE_VERTICES,
+};
 pub use tri_ops::{CollapsePlan, FlipPlan, InsertPlan, SplitPlan};
 pub use tri_validate::{Invariant, InvariantViolation, Level};
 pub use trimesh::{Face, FaceId, HalfEdge, HalfEdgeId, MeshPoint, TriMesh, Vertex, VertexId, VertexTag};

@@ -350,6 +350,7 @@ impl TetMesh {
                         continue;
                     }
                     let id = self.tets.insert(Tet { v, adj: glue, label: 0 });
+                    self.note_tet(v);
                     for (j, g) in glue.iter().enumerate() {
                         if let Some((u, l)) = g {
                             self.tets[*u].adj[*l as usize] = Some((id, j as u8));

@@ -102,7 +102,12 @@ impl TetMesh {
             }
         }
         for &t in &plan.old {
-            self.tets.remove(t);
+            if let Some(tx) = self.tets.remove(t) {
+                self.note_tet(tx.v);
+            }
+        }
+        if plan.add.is_some() || plan.remove.is_some() {
+            self.note_vertex_set();
         }
         let newv = plan.add.map(|(pos, tag)| self.vertices.insert(TVertex { pos, tet: TetId::null(), tag }));
         if let Some((v, p)) = plan.moved {
@@ -117,6 +122,7 @@ impl TetMesh {
                 }
             }
             let id = self.tets.insert(Tet { v, adj: [None; 4], label });
+            self.note_tet(v);
             made.push(id);
             for &x in &v {
                 self.vertices[x].tet = id;
@@ -713,6 +719,8 @@ impl TetMesh {
             }
             self.tets.remove(t);
             self.vertices.remove(tx.v[i]);
+            self.note_tet(tx.v);
+            self.note_vertex_set();
             return Ok(());
         }
         self.revision = self.revision.wrapping_add(1);
@@ -727,6 +735,7 @@ impl TetMesh {
             }
         }
         self.tets.remove(t);
+        self.note_tet(tx.v);
         for w in tx.v {
             if self.vertices[w].tag == VertexTag::Interior {
                 self.vertices[w].tag = VertexTag::Boundary;

@@ -87,6 +87,16 @@ impl EdgeShell {
     }
 }
 
+/// What the topology changes made since [`TetMesh::open_journal`] touched, for callers that
+/// keep arrays derived from the mesh and refresh only the touched part.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Journal {
+    /// The vertices of every tet made or removed, with repeats.
+    pub touched: Vec<TVertexId>,
+    /// Whether a vertex was added or removed.
+    pub vertices_changed: bool,
+}
+
 /// A tetrahedral mesh with face neighbours in slotmap arenas.
 #[derive(Clone, Debug, Default)]
 pub struct TetMesh {
@@ -94,6 +104,8 @@ pub struct TetMesh {
     pub(crate) tets: SlotMap<TetId, Tet>,
     /// Bumped by every write; a plan remembers the revision it was checked against.
     pub(crate) revision: u64,
+    /// Open while a caller wants to know what changes touch (see [`Journal`]).
+    pub(crate) journal: Option<Journal>,
 }
 
 impl PartialEq for TetMesh {
@@ -222,6 +234,7 @@ impl TetMesh {
             vertices: SlotMap::with_capacity_and_key(n),
             tets: SlotMap::with_capacity_and_key(7 * n + 8),
             revision: 0,
+            journal: None,
         }
     }
 
@@ -301,6 +314,28 @@ impl TetMesh {
     /// Sets the subdomain label of a tet.
     pub fn set_label(&mut self, t: TetId, label: u32) {
         self.tets[t].label = label;
+    }
+    /// Starts recording what topology changes touch (a journal already open starts over).
+    pub fn open_journal(&mut self) {
+        self.journal = Some(Journal::default());
+    }
+    /// Closes the journal and returns it (`None` if none was open).
+    pub fn take_journal(&mut self) -> Option<Journal> {
+        self.journal.take()
+    }
+    /// Records a tet made or removed.
+    #[inline]
+    pub(crate) fn note_tet(&mut self, v: [TVertexId; 4]) {
+        if let Some(j) = &mut self.journal {
+            j.touched.extend_from_slice(&v);
+        }
+    }
+    /// Records a vertex added or removed.
+    #[inline]
+    pub(crate) fn note_vertex_set(&mut self) {
+        if let Some(j) = &mut self.journal {
+            j.vertices_changed = true;
+        }
     }
     /// Moves a vertex without any check; use `relocate` for a checked move.
     pub fn set_pos_unchecked(&mut self, v: TVertexId, p: DVec3) {
