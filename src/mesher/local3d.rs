@@ -1932,7 +1932,19 @@ fn star_rr_sum(star: &[([DVec3; 4], usize)], x: DVec3) -> f64 {
 /// circumcentre is q0 + (|a|^2 b x c + |b|^2 c x a + |c|^2 n) / (12 V), and
 /// 3 r_in / r_out = 6 (6V)^2 / (2 area |12 V (circumcentre - q0)|).
 struct StarRr {
-    parts: SmallVec<[(DVec3, DVec3, DVec3, DVec3, f64, f64, f64); 32]>,
+    parts: SmallVec<[RrTerm; 32]>,
+}
+
+/// One tet of a [`StarRr`]: q0, a, b, n = a x b, |a|^2, |b|^2 and |n|.
+#[derive(Clone, Copy)]
+struct RrTerm {
+    q0: DVec3,
+    a: DVec3,
+    b: DVec3,
+    n: DVec3,
+    aa: f64,
+    bb: f64,
+    nn: f64,
 }
 
 impl StarRr {
@@ -1943,7 +1955,7 @@ impl StarRr {
                 let [q0, q1, q2] = [(k + 1) % 4, (k + 2) % 4, (k + 3) % 4].map(|i| p[i]);
                 let (a, b) = (q1 - q0, q2 - q0);
                 let n = a.cross(b);
-                (q0, a, b, n, a.length_squared(), b.length_squared(), n.length())
+                RrTerm { q0, a, b, n, aa: a.length_squared(), bb: b.length_squared(), nn: n.length() }
             })
             .collect();
         StarRr { parts }
@@ -1952,15 +1964,15 @@ impl StarRr {
     fn sum(&self, x: DVec3) -> f64 {
         self.parts
             .iter()
-            .map(|&(q0, a, b, n, aa, bb, nn)| {
-                let c = x - q0;
-                let v6 = n.dot(c).abs();
+            .map(|t| {
+                let c = x - t.q0;
+                let v6 = t.n.dot(c).abs();
                 if v6 == 0.0 {
                     return 0.0;
                 }
-                let (bc, ca) = (b.cross(c), c.cross(a));
-                let area2 = nn + bc.length() + ca.length() + (bc + n + ca).length();
-                let num = aa * bc + bb * ca + c.length_squared() * n;
+                let (bc, ca) = (t.b.cross(c), c.cross(t.a));
+                let area2 = t.nn + bc.length() + ca.length() + (bc + t.n + ca).length();
+                let num = t.aa * bc + t.bb * ca + c.length_squared() * t.n;
                 (6.0 * v6 * v6 / (area2 * num.length())).clamp(0.0, 1.0)
             })
             .sum()
