@@ -120,6 +120,18 @@ fn cylinder_minus_ball_graded() {
     check_size(&r);
 }
 
+/// The same domain at h0 = 0.09: here a flat tet folded at the rim stayed (0.02 to 179.9
+/// degrees) while the local removal refused it, until squashed tets stuck at two checks in a
+/// row were carved together. The validity and element-quality targets.
+#[test]
+fn cylinder_minus_ball_h009_has_no_stuck_sliver() {
+    let (d, o, v) = cyl_minus_ball();
+    let o = Options3 { h0: 0.09, ..o };
+    let r = measure("cylinder minus ball, h = min(4|x| - 1, 2), h0 = 0.09", &d, &o, v);
+    check_basic(&r);
+    check_quality(&r);
+}
+
 #[test]
 fn cylinder_minus_ball_mean_quality() {
     let (d, o, v) = cyl_minus_ball();

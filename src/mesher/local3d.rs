@@ -614,6 +614,58 @@ fn repair_pinches(points: &[DVec3], tets: &mut Vec<[usize; 4]>) -> Result<TetMes
     Err(Error::Internal("the carved start mesh keeps pinched vertices".into()))
 }
 
+/// Whether tet t is squashed against the boundary: three or four of its vertices on it and its
+/// centroid within GEPS h of d = 0 (or outside). The seed's retriangulation drops such tets.
+fn squashed(ctx: &Ctx, m: &TetMesh, t: TetId) -> Result<bool, Error> {
+    let tx = m.tet(t);
+    if tx.v.iter().filter(|&&v| m.tag(v) != VertexTag::Interior).count() < 3 {
+        return Ok(false);
+    }
+    let p = m.tet_points(t);
+    let c = (p[0] + p[1] + p[2] + p[3]) / 4.0;
+    Ok(ctx.approx_dist(c)? > -GEPS * ctx.opts.h0 * ctx.h(c)?)
+}
+
+/// The squashed tets ([`squashed`]) that the local removal refuses, in arena order.
+fn stuck_tets(ctx: &Ctx, m: &TetMesh) -> Result<Vec<TetId>, Error> {
+    let ids: Vec<TetId> = m.tet_ids().collect();
+    ids.par_iter()
+        .with_min_len(CHUNK)
+        .map(|&t| Ok((squashed(ctx, m, t)? && m.check_remove_boundary_tet(t).is_err()).then_some(t)))
+        .collect::<Result<Vec<Option<TetId>>, Error>>()
+        .map(|v| v.into_iter().flatten().collect())
+}
+
+/// Drops the given tets at once and rebuilds the mesh from arrays with its pinches repaired,
+/// as the start does. The force loop removes squashed tets one at a time where that keeps the
+/// boundary a 2-manifold; a cluster of them bridging a concave part of the boundary (or
+/// folded at a sharp edge) only goes together, and left alone it ends as slivers no swap can
+/// reach. Returns whether the mesh changed; a carve that would lose a fixed point is not made.
+fn carve(ctx: &Ctx, m: &mut TetMesh, gone: &[TetId]) -> Result<bool, Error> {
+    if gone.is_empty() {
+        return Ok(false);
+    }
+    let drop: SecondaryMap<TetId, ()> = gone.iter().map(|&t| (t, ())).collect();
+    let keep: Vec<bool> = m.tet_ids().map(|t| !drop.contains_key(t)).collect();
+    let (points, tets, _, _) = m.to_arrays();
+    let mut kept: Vec<[usize; 4]> = tets.into_iter().zip(keep).filter(|x| x.1).map(|x| x.0).collect();
+    let mut carved = repair_pinches(&points, &mut kept)?;
+    carved.tag_boundary_vertices();
+    let fixed = &ctx.opts.fixed;
+    let mut found = 0;
+    for v in carved.vertex_ids().collect::<Vec<_>>() {
+        if fixed.contains(&carved.pos(v)) {
+            carved.set_tag(v, VertexTag::Fixed);
+            found += 1;
+        }
+    }
+    if found < m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).count() {
+        return Ok(false);
+    }
+    *m = carved;
+    Ok(true)
+}
+
 // ============================ snapshot ============================
 
 /// Free entries at the end of each neighbour row of the snapshot, so that a refresh after
@@ -998,6 +1050,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
     let (mut best_q, mut converged, mut iter) = (Vec::new(), false, 0);
     let mut tried: SecondaryMap<TetId, usize> = SecondaryMap::new();
     let mut clock = PhaseClock::new();
+    let mut stuck: Vec<TetId> = Vec::new();
     while iter < opts.max_iter {
         clock.lap("stop tests and trace");
         iter += 1;
@@ -1208,6 +1261,26 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
                 }
             }
         }
+        // Squashed tets the local removal refused at two checks in a row go together (rare:
+        // most are squashed for a step or two and then leave one by one).
+        let mut carved = false;
+        if iter % DENSITY_EVERY == 0 {
+            // (The positions were written back at the start of the density block.)
+            let now = stuck_tets(ctx, m)?;
+            let again: Vec<TetId> = now.iter().copied().filter(|t| stuck.binary_search(t).is_ok()).collect();
+            carved = carve(ctx, m, &again)?;
+            if carved {
+                if ctx.trace {
+                    eprintln!("iter {iter}: {} stuck squashed tets carved, the mesh rebuilt", again.len());
+                }
+                topo_changed = true;
+                tried.clear();
+                stuck.clear();
+            } else {
+                stuck = now;
+                stuck.sort_unstable();
+            }
+        }
         clock.lap("density");
         if topo_changed {
             // Density control may grow the mesh past what the survey estimated.
@@ -1216,7 +1289,7 @@ fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             }
             // Only the rows of the vertices the changes touched are recomputed.
             let journal = m.take_journal().unwrap_or_default();
-            if !snap.refresh(m, &journal) {
+            if carved || !snap.refresh(m, &journal) {
                 snap = Snapshot::build(m);
             }
             m.open_journal();
