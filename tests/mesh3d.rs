@@ -132,6 +132,24 @@ fn cylinder_minus_ball_h009_has_no_stuck_sliver() {
     check_quality(&r);
 }
 
+/// The cube as the command line gives it (`max(max(abs(x),abs(y)),abs(z))-1`, corners fixed) at
+/// h0 = 0.17. Known defect, not one of the examples: the cube's faces are planes and its
+/// edges are not tracked as features; four boundary vertices on one face can end up joined by a
+/// flat tet that the one-at-a-time removal refuses (its apex is already on the boundary), and
+/// carving such tets together along the edges split corners off the mesh, so that carve is
+/// refused. Measured 2026-11-26: 0.0 / 180.0 degrees, 6 flat tets (h0 = 0.15: 24.7 / 141.6;
+/// h0 = 0.25: 39.1 / 119.8).
+#[test]
+#[ignore = "known defect: flat tets on the cube's planar faces at h0 = 0.17 (0.0 / 180.0 degrees)"]
+fn cube_with_fixed_corners_h017() {
+    let expr = trussmesh::expr::Expr::parse("max(max(abs(x),abs(y)),abs(z))-1").expect("parses");
+    let d = trussmesh::expr::ExprImplicit3 { expr, distance: true };
+    let corners: Vec<[f64; 3]> = (0..8).map(|i| [0, 1, 2].map(|k| if i >> k & 1 == 1 { 1.0 } else { -1.0 })).collect();
+    let o = Options3::uniform(0.17, [-1.1; 3], [1.1; 3]).with_fixed(corners);
+    let r = measure("cube, corners fixed, h0 = 0.17", &d, &o, 8.0);
+    check_quality(&r);
+}
+
 #[test]
 fn cylinder_minus_ball_mean_quality() {
     let (d, o, v) = cyl_minus_ball();

@@ -42,6 +42,9 @@ use std::time::Instant;
 
 /// Lattice side over target edge length: the BCC Delaunay edges are a and a sqrt(3)/2 long.
 const LATTICE: f64 = 1.1;
+/// Face-connected pieces with fewer tets than this (and under 1e-3 of the volume) are dropped
+/// at the end ([`drop_specks`]).
+const SPECK_TETS: usize = 10;
 /// The interior lattice points' offset, in lattice sides (see [`jitter`]).
 const LATTICE_JITTER: f64 = 1e-6;
 /// Surface start points are at least this many lattice sides (times h) apart.
@@ -412,6 +415,9 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
             eprintln!("worst tq {q:.3}: {nb} boundary faces, {:?} {:?}", tags, mesh.tet_points(t)[0]);
         }
     }
+    if drop_specks(&ctx, &mut mesh)? && ctx.trace {
+        eprintln!("specks dropped");
+    }
     ctx.report.boundary_nodes_off = count_off(&ctx, &mesh)?;
     if let Err(e) = mesh.validate(Level::Geometry) {
         return Err(Error::Internal(format!("the finished mesh is invalid: {e}")));
@@ -662,7 +668,8 @@ fn stuck_tets(ctx: &Ctx, m: &TetMesh) -> Result<Vec<TetId>, Error> {
 /// as the start does. The force loop removes squashed tets one at a time where that keeps the
 /// boundary a 2-manifold; a cluster of them bridging a concave part of the boundary (or
 /// folded at a sharp edge) only goes together, and left alone it ends as slivers no swap can
-/// reach. Returns whether the mesh changed; a carve that would lose a fixed point is not made.
+/// reach. Returns whether the mesh changed; a carve that would lose a fixed point or split the
+/// mesh into more pieces is not made.
 fn carve(ctx: &Ctx, m: &mut TetMesh, gone: &[TetId]) -> Result<bool, Error> {
     if gone.is_empty() {
         return Ok(false);
@@ -684,8 +691,74 @@ fn carve(ctx: &Ctx, m: &mut TetMesh, gone: &[TetId]) -> Result<bool, Error> {
     if found < m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).count() {
         return Ok(false);
     }
+    // Nor one that splits the mesh: along a sharp edge the stuck tets can be all that holds a
+    // corner on (the cube's corners broke off that way).
+    if count_pieces(&carved) > count_pieces(m) {
+        return Ok(false);
+    }
     *m = carved;
     Ok(true)
+}
+
+/// The face-connected piece of each tet (a representative tet index per piece), in arena order.
+fn pieces(m: &TetMesh) -> (Vec<TetId>, Vec<usize>) {
+    let ids: Vec<TetId> = m.tet_ids().collect();
+    let mut index: SecondaryMap<TetId, usize> = SecondaryMap::with_capacity(ids.len());
+    for (k, &t) in ids.iter().enumerate() {
+        index.insert(t, k);
+    }
+    let mut sets = crate::topology::DisjointSets::new(ids.len());
+    for (k, &t) in ids.iter().enumerate() {
+        for (u, _) in m.tet(t).adj.iter().flatten() {
+            sets.join(k, index[*u]);
+        }
+    }
+    let roots = (0..ids.len()).map(|k| sets.root(k)).collect();
+    (ids, roots)
+}
+
+/// How many face-connected pieces the mesh has.
+fn count_pieces(m: &TetMesh) -> usize {
+    let (_, mut roots) = pieces(m);
+    roots.sort_unstable();
+    roots.dedup();
+    roots.len()
+}
+
+/// Drops face-connected pieces of fewer than SPECK_TETS tets holding less than 1e-3 of the
+/// volume, unless they alone hold a fixed point: a tet whose neighbours all left one by one
+/// (each removal keeps its own boundary manifold, not a neighbour's) is cut off, and at a sharp
+/// edge it may be flat. Returns whether the mesh changed.
+fn drop_specks(ctx: &Ctx, m: &mut TetMesh) -> Result<bool, Error> {
+    let (ids, roots) = pieces(m);
+    let vols: Vec<f64> = ids.iter().map(|&t| crate::quality::tet_volume(m.tet_points(t))).collect();
+    let total: f64 = vols.iter().sum();
+    let mut piece: HashMap<usize, (usize, f64)> = HashMap::new();
+    for (&root, &vol) in roots.iter().zip(&vols) {
+        let e = piece.entry(root).or_insert((0, 0.0));
+        e.0 += 1;
+        e.1 += vol;
+    }
+    let speck = |k: usize| {
+        let (n, v) = piece[&roots[k]];
+        n < SPECK_TETS && v < 1e-3 * total
+    };
+    // A fixed point that only specks hold keeps them.
+    let mut kept_fixed: SecondaryMap<TVertexId, bool> = SecondaryMap::new();
+    for (k, &t) in ids.iter().enumerate() {
+        let is_speck = speck(k);
+        for &v in &m.tet(t).v {
+            if m.tag(v) == VertexTag::Fixed {
+                let e = kept_fixed.entry(v).expect("live vertex").or_insert(false);
+                *e |= !is_speck;
+            }
+        }
+    }
+    let gone: Vec<TetId> = (0..ids.len())
+        .filter(|&k| speck(k) && m.tet(ids[k]).v.iter().all(|&v| m.tag(v) != VertexTag::Fixed || kept_fixed[v]))
+        .map(|k| ids[k])
+        .collect();
+    carve(ctx, m, &gone)
 }
 
 // ============================ snapshot ============================
@@ -2496,9 +2569,11 @@ mod tests {
         }
     }
 
-    /// The snapshot in vertex keys: kind, sorted neighbours and tets, for comparing snapshots
-    /// whose indices differ.
-    fn by_key(s: &Snapshot) -> (Vec<(TVertexId, u8, Vec<TVertexId>)>, Vec<(TetId, [TVertexId; 4])>) {
+    /// A snapshot in vertex keys: (vertex, kind, sorted neighbours) and (tet, corners).
+    type Keyed = (Vec<(TVertexId, u8, Vec<TVertexId>)>, Vec<(TetId, [TVertexId; 4])>);
+
+    /// The snapshot in vertex keys, for comparing snapshots whose indices differ.
+    fn by_key(s: &Snapshot) -> Keyed {
         let mut verts: Vec<(TVertexId, u8, Vec<TVertexId>)> = (0..s.ids.len())
             .filter(|&i| s.kind[i] != DEAD)
             .map(|i| {
@@ -2511,6 +2586,40 @@ mod tests {
         verts.sort_unstable_by_key(|x| x.0);
         let tets = s.tet_ids.iter().zip(&s.tets).map(|(&t, v)| (t, v.map(|i| s.ids[i as usize]))).collect();
         (verts, tets)
+    }
+
+    #[test]
+    fn a_cut_off_speck_is_dropped_and_the_rest_kept() {
+        let mut rng = crate::testing::Rng::new(crate::testing::SEED);
+        let mut pts: Vec<DVec3> = (0..200).map(|_| DVec3::new(rng.f64(), rng.f64(), rng.f64())).collect();
+        let (del, _) = TetMesh::delaunay(&pts).expect("delaunay");
+        let (points, mut tets, _, _) = del.to_arrays();
+        pts = points;
+        // A flat tet away from the rest, cut off from it.
+        let n = pts.len();
+        pts.extend([[3.0, 0.0, 0.0], [4.0, 0.0, 0.0], [3.0, 1.0, 0.0], [3.2, 0.2, 1e-3]].map(DVec3::from));
+        tets.push([n, n + 1, n + 2, n + 3]);
+        let (mut m, _) = TetMesh::from_arrays(&pts, &tets).expect("valid");
+        m.tag_boundary_vertices();
+        let domain = crate::geometry::Ball::new([0.0, 0.0, 0.0], 10.0);
+        let opts = Options3::uniform(0.1, [-1.0; 3], [5.0; 3]);
+        let ctx = Ctx {
+            domain: &domain,
+            opts: &opts,
+            projection: Projection::Exact,
+            h_floor: 1.0,
+            report: Report3::default(),
+            rng: 1,
+            trace: false,
+            polish_worst: 0.0,
+        };
+        let before = m.num_tets();
+        assert_eq!(count_pieces(&m), 2);
+        assert!(drop_specks(&ctx, &mut m).expect("no error"));
+        assert_eq!((count_pieces(&m), m.num_tets(), m.num_vertices()), (1, before - 1, n));
+        m.validate(Level::Geometry).expect("valid");
+        // Nothing left to drop.
+        assert!(!drop_specks(&ctx, &mut m).expect("no error"));
     }
 
     #[test]
