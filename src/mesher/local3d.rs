@@ -233,10 +233,7 @@ impl Ctx<'_> {
     /// SplitMix64 on the options' seed: the only randomness, so runs repeat bit for bit.
     fn next_f64(&mut self) -> f64 {
         self.rng = self.rng.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.rng;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        splitmix_unit(self.rng)
     }
 }
 
@@ -430,15 +427,18 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
 
 // ============================ initial mesh ============================
 
-/// A deterministic pseudo-random vector in [-1, 1]^3 for index i (SplitMix64 of i).
+/// The SplitMix64 output for state `z` (Steele, Lea and Flood 2014), as a number in [0, 1).
+fn splitmix_unit(z: u64) -> f64 {
+    let mut z = z;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// A deterministic pseudo-random vector in [-1, 1]^3 for index i.
 fn jitter(i: u64) -> DVec3 {
-    let unit = |k: u64| {
-        let mut z = i.wrapping_mul(3).wrapping_add(k).wrapping_add(0x9E37_79B9_7F4A_7C15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let unit =
+        |k: u64| 2.0 * splitmix_unit(i.wrapping_mul(3).wrapping_add(k).wrapping_add(0x9E37_79B9_7F4A_7C15)) - 1.0;
     DVec3::new(unit(0), unit(1), unit(2))
 }
 
@@ -478,8 +478,9 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Error> {
                         // lattice forms many cospherical sets, whose insphere tests leave the
                         // floating-point filter for exact arithmetic. Off the lattice by 1e-6
                         // of its side, the start's Delaunay at 10^6 tets takes 0.56 s instead
-                        // of 2.0 s. The offset only picks among the lattice's equally Delaunay
-                        // triangulations; the surface and fixed points are not moved.
+                        // of 2.0 s. Where the lattice is degenerate the offset picks another
+                        // triangulation (a few near-flat tets among them, which the force
+                        // loop's swaps remove); the surface and fixed points are not moved.
                         pts.push(p + LATTICE_JITTER * a * jitter(pts.len() as u64));
                     } else if d.abs() < a * h {
                         let Some(q) = ctx.project(p)? else { continue };
