@@ -679,7 +679,8 @@ fn carve(ctx: &Ctx, m: &mut TetMesh, gone: &[TetId]) -> Result<bool, Error> {
     let keep: Vec<bool> = m.tet_ids().map(|t| !drop.contains_key(t)).collect();
     let (points, tets, _, _) = m.to_arrays();
     let mut kept: Vec<[usize; 4]> = tets.into_iter().zip(keep).filter(|x| x.1).map(|x| x.0).collect();
-    let mut carved = repair_pinches(&points, &mut kept)?;
+    // A carve whose pinches do not resolve is not made (the mesh as it is stays valid).
+    let Ok(mut carved) = repair_pinches(&points, &mut kept) else { return Ok(false) };
     carved.tag_boundary_vertices();
     let fixed = &ctx.opts.fixed;
     let mut found = 0;
