@@ -2590,6 +2590,45 @@ mod tests {
         (verts, tets)
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config {
+            cases: 64,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(crate::testing::SEED),
+            ..proptest::test_runner::Config::default()
+        })]
+
+        /// Random operation sequences (flips, edge removals, splits, collapses, insertions,
+        /// moves), the snapshot refreshed after every few: it always says what a rebuild says.
+        #[test]
+        fn refreshes_after_random_operations_equal_rebuilds(
+            n in 8usize..40,
+            seed in proptest::prelude::any::<u64>(),
+            bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..400),
+            every in 1usize..6,
+        ) {
+            let (mut m, _) = TetMesh::delaunay(&crate::testing::random_points_3d(n, seed)).expect("delaunay");
+            m.tag_boundary_vertices();
+            let mut snap = Snapshot::build(&m);
+            m.open_journal();
+            let mut u = arbitrary::Unstructured::new(&bytes);
+            let mut k = 0;
+            // (An exhausted input still yields default operations: stop on it.)
+            while !u.is_empty() && k < 64 {
+                let Ok(op) = u.arbitrary::<crate::testing::TetOp>() else { break };
+                let _ = crate::testing::apply_tet_op(&mut m, op);
+                k += 1;
+                if k % every == 0 {
+                    let journal = m.take_journal().expect("open journal");
+                    if !snap.refresh(&m, &journal) {
+                        snap = Snapshot::build(&m);
+                    }
+                    proptest::prop_assert_eq!(by_key(&snap), by_key(&Snapshot::build(&m)));
+                    m.open_journal();
+                }
+            }
+        }
+    }
+
     #[test]
     fn a_cut_off_speck_is_dropped_and_the_rest_kept() {
         let mut rng = crate::testing::Rng::new(crate::testing::SEED);
