@@ -538,13 +538,22 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Error> {
     let mut tets: Vec<[usize; 4]> = tets.into_iter().zip(keep).filter(|x| x.1).map(|x| x.0).collect();
     tets.par_sort_unstable_by_key(|t| (*t.iter().min().expect("four"), *t));
     let mut mesh = repair_pinches(&points, &mut tets)?;
-    mesh.tag_boundary_vertices();
-    for v in mesh.vertex_ids().collect::<Vec<_>>() {
-        if opts.fixed.contains(&mesh.pos(v)) {
-            mesh.set_tag(v, VertexTag::Fixed);
+    tag_built_mesh(&mut mesh, &opts.fixed);
+    Ok(mesh)
+}
+
+/// Tags a mesh built from arrays: vertices on boundary faces `Boundary`, the fixed points
+/// `Fixed`. Returns how many fixed points it holds.
+fn tag_built_mesh(m: &mut TetMesh, fixed: &[DVec3]) -> usize {
+    m.tag_boundary_vertices();
+    let mut found = 0;
+    for v in m.vertex_ids().collect::<Vec<_>>() {
+        if fixed.contains(&m.pos(v)) {
+            m.set_tag(v, VertexTag::Fixed);
+            found += 1;
         }
     }
-    Ok(mesh)
+    found
 }
 
 /// Builds the mesh from the kept tets, dropping the smaller side wherever tets meet only at a
@@ -681,15 +690,7 @@ fn carve(ctx: &Ctx, m: &mut TetMesh, gone: &[TetId]) -> Result<bool, Error> {
     let mut kept: Vec<[usize; 4]> = tets.into_iter().zip(keep).filter(|x| x.1).map(|x| x.0).collect();
     // A carve whose pinches do not resolve is not made (the mesh as it is stays valid).
     let Ok(mut carved) = repair_pinches(&points, &mut kept) else { return Ok(false) };
-    carved.tag_boundary_vertices();
-    let fixed = &ctx.opts.fixed;
-    let mut found = 0;
-    for v in carved.vertex_ids().collect::<Vec<_>>() {
-        if fixed.contains(&carved.pos(v)) {
-            carved.set_tag(v, VertexTag::Fixed);
-            found += 1;
-        }
-    }
+    let found = tag_built_mesh(&mut carved, &ctx.opts.fixed);
     if found < m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).count() {
         return Ok(false);
     }
