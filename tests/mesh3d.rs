@@ -147,9 +147,13 @@ fn cylinder_minus_ball_h009_has_no_stuck_sliver() {
 /// vertices on one plane stays "positive" by rounding whichever way a vertex slides in the
 /// plane. Deleting the flat tets is refused (the apex is on the boundary), collapsing along
 /// the fold's interior edges is refused (a boundary vertex may only move along a boundary
-/// edge), and the collapses along boundary edges leave flat tets (tried: one of six resolved).
-/// A fix needs the fold prevented: a guard on the surface triangles' orientation against the
-/// normal of d, next to the tets' orientation guard.
+/// edge), and the collapses along boundary edges leave flat tets (tried at the end of the
+/// run: one change was possible, the flat tets stayed). Tets of radius ratio below 1e-3: 38
+/// after the force loop, 32 after the boundary is settled, 21 after the polish. A guard in
+/// the force loop that holds back the vertices of any boundary triangle whose normal would
+/// turn past 90 degrees in one step left the 38 as they were, so the folds do not come from
+/// the moves of one step: the next place to look is the topological changes of the loop
+/// (removal of squashed boundary tets, density control, surface flips).
 #[test]
 #[ignore = "known defect: flat tets on the cube's planar faces at h0 = 0.17 (0.0 / 180.0 degrees)"]
 fn cube_with_fixed_corners_h017() {
