@@ -102,7 +102,6 @@ fn ex3a_square_with_hole() {
     check("ex3a", Some(0.7));
 }
 #[test]
-#[ignore = "graded sizes: q mean 0.9628 (target 0.97), size deviation 4.1% (target 4%); q min 0.781 passes (before the local search after equilibrium: 0.9418, 4.7%, 0.533)"]
 fn ex3b_square_with_hole_graded() {
     check("ex3b", Some(0.7));
 }
