@@ -30,6 +30,14 @@ const INIT_SPLIT: f64 = std::f64::consts::SQRT_2;
 /// itself: figure 3-6's boundary layer came out thinner from this start (0.0108 against 0.0151
 /// with the square root of 2; its test asks at most 0.015).
 const INIT_SPLIT_METRIC: f64 = 1.5;
+/// The start is filled by splits up to this fraction of the survey's triangle estimate
+/// ([`fill_to_estimate`]).
+const FILL_TO: f64 = 0.95;
+/// [`fill_to_estimate`] splits only edges longer than this many targets: a uniform size's
+/// lattice has every edge at one target, and splits there would break it.
+const FILL_ABOVE: f64 = 1.1;
+/// Passes of [`fill_to_estimate`] at most.
+const FILL_PASSES: usize = 4;
 /// Density control splits edges longer than this many target lengths (hysteresis band).
 const SPLIT_ABOVE: f64 = 2.0;
 /// Density control collapses edges shorter than this many target lengths.
@@ -513,11 +521,70 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2>, Error> {
         internal::align(&mut m, di, ctx.geps)?;
     }
     let t = Instant::now();
-    let out = carve(ctx, m, 0.0);
+    let mut out = carve(ctx, m, 0.0)?;
+    let carved = out.num_faces();
+    let splits =
+        if ctx.metric.is_none() && ctx.internal.is_none() { fill_to_estimate(ctx, &mut out, estimate)? } else { 0 };
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
-        eprintln!("carve {:.3} s", t.elapsed().as_secs_f64());
+        eprintln!(
+            "carve {:.3} s: {carved} triangles, {splits} splits toward the estimate {estimate:.0}",
+            t.elapsed().as_secs_f64()
+        );
     }
-    out
+    Ok(out)
+}
+
+/// Splits the longest interior edges of the carved start (in target lengths, each longer than
+/// FILL_ABOVE targets, no two splits on one vertex in a pass) until it has FILL_TO of the triangles the
+/// survey estimates. The lattice's levels are a factor 2 apart, so where h varies the start can
+/// be coarser than h asks for (example 3b at h0 = 0.051: 368 triangles at the end where the
+/// estimate is 475), and the truss keeps the count it starts with (its density control acts only
+/// beyond 2 targets). Returns the number of splits.
+fn fill_to_estimate(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, estimate: f64) -> Result<usize, Error> {
+    let want = (FILL_TO * estimate) as usize;
+    let mut splits = 0;
+    for _ in 0..FILL_PASSES {
+        if m.num_faces() >= want {
+            break;
+        }
+        let mut cands: Vec<(f64, VertexId, VertexId)> = Vec::new();
+        for h in m.edge_ids() {
+            if m.is_boundary_edge(h) || m.is_constrained_edge(h) {
+                continue;
+            }
+            let (a, b) = (m.origin(h), m.dest(h));
+            let r = ctx.ratio(m.pos(a), m.pos(b))?;
+            if r > FILL_ABOVE {
+                cands.push((r, a, b));
+            }
+        }
+        // Stable: equal ratios keep the mesh's edge order (deterministic).
+        cands.sort_by(|x, y| y.0.total_cmp(&x.0));
+        let mut used: SecondaryMap<VertexId, ()> = SecondaryMap::new();
+        let mut new = Vec::new();
+        for (_, a, b) in cands {
+            if m.num_faces() >= want {
+                break;
+            }
+            if used.contains_key(a) || used.contains_key(b) {
+                continue;
+            }
+            let Some(h) = m.find_half_edge(a, b) else { continue };
+            if let Ok(v) = m.split_edge(h, (m.pos(a) + m.pos(b)) * 0.5) {
+                m.set_tag(v, VertexTag::Interior);
+                used.insert(a, ());
+                used.insert(b, ());
+                new.push(v);
+                splits += 1;
+            }
+        }
+        if new.is_empty() {
+            break;
+        }
+        let stack = star_edges(m, &new);
+        ctx.legalize(m, stack);
+    }
+    Ok(splits)
 }
 
 /// Uniform sizes, no fixed points, a large start: the rounds of red refinement of
