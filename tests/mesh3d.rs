@@ -154,6 +154,16 @@ fn cylinder_minus_ball_h009_has_no_stuck_sliver() {
 /// turn past 90 degrees in one step left the 38 as they were, so the folds do not come from
 /// the moves of one step: the next place to look is the topological changes of the loop
 /// (removal of squashed boundary tets, density control, surface flips).
+///
+/// Session 9 counted folded boundary triangles (outward normal against the gradient of d at
+/// the centroid, cosine below -0.5) after each phase of every iteration. The start already
+/// has one after the first projection onto the faces. Over the first 64 iterations the force
+/// steps (with their Delaunay flips) raised the count by 48 in all and the boundary-tet
+/// removals by 12; the sliver swaps and the removals also took 94 away. The density control
+/// made no new fold: every count it added came from splitting a boundary edge of a folded
+/// triangle, which leaves two folded halves. So the folds are made where boundary nodes near
+/// the cube's edges are projected onto one face or the other. The cure is to track the edges
+/// as features, which the mesher does not do.
 #[test]
 #[ignore = "known defect: flat tets on the cube's planar faces at h0 = 0.17 (0.0 / 180.0 degrees)"]
 fn cube_with_fixed_corners_h017() {
