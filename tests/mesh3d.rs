@@ -157,7 +157,7 @@ fn cylinder_minus_ball_h009_has_no_stuck_sliver() {
 ///
 /// Session 9 counted folded boundary triangles (outward normal against the gradient of d at
 /// the centroid, cosine below -0.5) after each phase of every iteration. The start already
-/// has one after the first projection onto the faces. Over the first 64 iterations the force
+/// has one after the first projection onto the faces. Over the 120 iterations of the force loop the force
 /// steps (with their Delaunay flips) raised the count by 48 in all and the boundary-tet
 /// removals by 12; the sliver swaps and the removals also took 94 away. The density control
 /// made no new fold: every count it added came from splitting a boundary edge of a folded
