@@ -104,7 +104,7 @@ fn rel_radius(t: [DVec2; 3], h: &dyn Fn(DVec2) -> Result<f64, Error>) -> Result<
 /// run to convergence on every interior node and the hole's boundary nodes: 0 gives q mean
 /// 0.9753 at size deviation 8.0% (shape bought with size), 3 gives 0.9710 / 4.3%, 5 gives
 /// 0.9689 / 3.6% (the size deviation the equilibrium left), 10 gives 0.9658 / 2.9%. With the
-/// search in the loop (the finished mesher): 3 gives 0.9723 / 4.4%, 4 gives 0.9723 / 3.7%, 5
+/// search in the loop (before the start's fill toward the estimate): 3 gives 0.9723 / 4.4%, 4 gives 0.9723 / 3.7%, 5
 /// gives 0.9692 / 3.1%.
 const SIZE_PULL: f64 = 4.0;
 /// The first step of a node, as a fraction of the mean length of its edges, before it has a
@@ -156,8 +156,8 @@ fn polish_nodes(
     let budget = if whole.is_some() { f64::INFINITY } else { st.dev_with(0.0, 0.0) };
     let q_floor = whole.map_or_else(|| st.q.values().copied().fold(f64::INFINITY, f64::min), |w| w.qmin);
     let mut steps: SecondaryMap<VertexId, f64> = SecondaryMap::new();
-    // Nodes whose last try failed and whose neighbours have not moved since: a new try would
-    // fail again.
+    // Nodes whose last try failed or gained less than MOVE_GAIN, and whose neighbours have not
+    // gained more since: a new try would do about as little.
     let mut idle: SecondaryMap<VertexId, ()> = SecondaryMap::new();
     let mut kept = 0;
     for _ in 0..sweeps {
