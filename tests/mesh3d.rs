@@ -132,47 +132,27 @@ fn cylinder_minus_ball_h009_has_no_stuck_sliver() {
     check_quality(&r);
 }
 
-/// The cube as the command line gives it (`max(max(abs(x),abs(y)),abs(z))-1`, corners fixed) at
-/// h0 = 0.17. Known defect, not one of the issue's examples: the cube's faces are planes and its
-/// edges are not tracked as features; four boundary vertices on one face can end up joined by a
-/// flat tet that the one-at-a-time removal refuses (its apex is already on the boundary), and
-/// carving such tets together along the edges split corners off the mesh, so that carve is
-/// refused. Measured 2026-11-26: 0.0 / 180.0 degrees, 6 flat tets (h0 = 0.15: 24.7 / 141.6;
-/// h0 = 0.25: 39.1 / 119.8).
-///
-/// Diagnosis (2026-11-26, session 8): the boundary is folded on a face. A boundary vertex lies
-/// on the plane next to (almost on) an edge shared by two boundary triangles of the same plane,
-/// joined to them by tets of radius ratio 1e-30 to 1e-14; its edges to those triangles'
-/// vertices are interior edges. The step control cannot see the fold forming: a tet with four
-/// vertices on one plane stays "positive" by rounding whichever way a vertex slides in the
-/// plane. Deleting the flat tets is refused (the apex is on the boundary), collapsing along
-/// the fold's interior edges is refused (a boundary vertex may only move along a boundary
-/// edge), and the collapses along boundary edges leave flat tets (tried at the end of the
-/// run: one change was possible, the flat tets stayed). Tets of radius ratio below 1e-3: 38
-/// after the force loop, 32 after the boundary is settled, 21 after the polish. A guard in
-/// the force loop that holds back the vertices of any boundary triangle whose normal would
-/// turn past 90 degrees in one step left the 38 as they were, so the folds do not come from
-/// the moves of one step: the next place to look is the topological changes of the loop
-/// (removal of squashed boundary tets, density control, surface flips).
-///
-/// Session 9 counted folded boundary triangles (outward normal against the gradient of d at
-/// the centroid, cosine below -0.5) after each phase of every iteration. The start already
-/// has one after the first projection onto the faces. Over the 120 iterations of the force loop the force
-/// steps (with their Delaunay flips) raised the count by 48 in all and the boundary-tet
-/// removals by 12; the sliver swaps and the removals also took 94 away. The density control
-/// made no new fold: every count it added came from splitting a boundary edge of a folded
-/// triangle, which leaves two folded halves. So the folds are made where boundary nodes near
-/// the cube's edges are projected onto one face or the other. The cure is to track the edges
-/// as features, which the mesher does not do.
+/// The cube as the command line gives it (`max(max(abs(x),abs(y)),abs(z))-1`), with its corners
+/// fixed and without, at the sizes that showed a defect before the start put points on sharp
+/// edges: at h0 = 0.17 the boundary folded on a face, where nodes near an edge were projected
+/// onto one face or the other, and flat tets stayed (0.0 / 180.0 degrees; 24.7 / 141.6 at
+/// h0 = 0.15). Every target of the issue, the volume within 1% included.
 #[test]
-#[ignore = "known defect: flat tets on the cube's planar faces at h0 = 0.17 (0.0 / 180.0 degrees)"]
-fn cube_with_fixed_corners_h017() {
+fn cube_sharp_edges() {
     let expr = trussmesh::expr::Expr::parse("max(max(abs(x),abs(y)),abs(z))-1").expect("parses");
     let d = trussmesh::expr::ExprImplicit3 { expr, distance: true };
     let corners: Vec<[f64; 3]> = (0..8).map(|i| [0, 1, 2].map(|k| if i >> k & 1 == 1 { 1.0 } else { -1.0 })).collect();
-    let o = Options3::uniform(0.17, [-1.1; 3], [1.1; 3]).with_fixed(corners);
-    let r = measure("cube, corners fixed, h0 = 0.17", &d, &o, 8.0);
-    check_quality(&r);
+    for h0 in [0.17, 0.15, 0.25] {
+        for fixed in [true, false] {
+            let mut o = Options3::uniform(h0, [-1.1; 3], [1.1; 3]);
+            if fixed {
+                o = o.with_fixed(corners.clone());
+            }
+            let name = format!("cube, h0 = {h0}, corners {}", if fixed { "fixed" } else { "free" });
+            let r = measure(&name, &d, &o, 8.0);
+            check_all(&r);
+        }
+    }
 }
 
 #[test]

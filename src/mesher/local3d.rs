@@ -47,6 +47,19 @@ const LATTICE: f64 = 1.1;
 const SPECK_TETS: usize = 10;
 /// The interior lattice points' offset, in lattice sides (see [`jitter`]).
 const LATTICE_JITTER: f64 = 1e-6;
+/// Surface start points whose normals differ by more than this many degrees straddle a sharp
+/// edge ([`crease_points`]).
+const CREASE_DEG: f64 = 40.0;
+/// Pairs of surface start points are looked at up to this many surface gaps (times h) apart.
+const CREASE_REACH: f64 = 1.6;
+/// A crease point is kept when the projection moves the tangent planes' point by at most this
+/// many surface gaps (times h): more, and the surface is curved, not creased, there.
+const CREASE_TOL: f64 = 0.1;
+/// A surface point is on a sharp edge when the normals this many surface gaps (times h) away
+/// from it differ by more than CREASE_DEG.
+const CREASE_PROBE: f64 = 1e-3;
+/// Points on sharp edges are at least this many target lengths (h0 h) apart.
+const CREASE_SPACING: f64 = 1.0;
 /// Surface start points are at least this many lattice sides (times h) apart.
 const SURFACE_GAP: f64 = 0.9;
 /// Lattice points deeper than this many lattice sides (times h) are interior start points.
@@ -200,6 +213,8 @@ struct Ctx<'a> {
     trace: bool,
     /// The worst tq at the start of the last polish round.
     polish_worst: f64,
+    /// The fixed points: the user's, then the points the start put on sharp edges.
+    fixed: Vec<DVec3>,
 }
 
 impl Ctx<'_> {
@@ -380,6 +395,7 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
         rng: opts.seed ^ 0x7472_7573_736d_6533,
         trace: std::env::var_os("TRUSSMESH_TRACE").is_some(),
         polish_worst: f64::NEG_INFINITY,
+        fixed: opts.fixed.clone(),
     };
     let mut mesh = initial_mesh(&mut ctx, survey.estimated_tets)?;
     if ctx.trace {
@@ -511,7 +527,31 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Error> {
             }
         }
     }
-    pts.extend(opts.fixed.iter().copied());
+    let t_crease = Instant::now();
+    let creases = crease_points(ctx, &grid, gap)?;
+    if ctx.trace {
+        eprintln!(
+            "start: {} points on sharp edges, held fixed ({:.3} s)",
+            creases.len(),
+            t_crease.elapsed().as_secs_f64()
+        );
+    }
+    if !creases.is_empty() {
+        // Start points near a crease point give way to it, as to a fixed point.
+        let near = |p: DVec3| -> Result<bool, Error> {
+            let h = if uniform { 1.0 } else { ctx.h(p)? };
+            Ok(creases.iter().any(|c| c.distance(p) < 0.5 * a * h))
+        };
+        let mut kept = Vec::with_capacity(pts.len());
+        for p in pts {
+            if !near(p)? {
+                kept.push(p);
+            }
+        }
+        pts = kept;
+        ctx.fixed.extend(creases);
+    }
+    pts.extend(ctx.fixed.iter().copied());
     if pts.len() < 4 {
         return Err(Error::EmptyDomain(format!(
             "only {} lattice points fall inside the domain at h0 = {}: h0 is too large for it",
@@ -538,8 +578,90 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Error> {
     let mut tets: Vec<[usize; 4]> = tets.into_iter().zip(keep).filter(|x| x.1).map(|x| x.0).collect();
     tets.par_sort_unstable_by_key(|t| (*t.iter().min().expect("four"), *t));
     let mut mesh = repair_pinches(&points, &mut tets)?;
-    tag_built_mesh(&mut mesh, &opts.fixed);
+    tag_built_mesh(&mut mesh, &ctx.fixed);
     Ok(mesh)
+}
+
+/// Points on the domain's sharp edges, at about one target length apart, which the start
+/// holds fixed: the seed keeps sharp features with fixed points, and a polyhedron meshed
+/// without them folds its boundary where nodes near an edge are projected onto one face or the
+/// other (the cube at h0 = 0.17 kept 0-degree tets). Two surface start points (`grid`, cells
+/// of side `gap`) closer than CREASE_REACH gaps whose normals differ by more than CREASE_DEG
+/// degrees straddle an edge: the point of the line where their tangent planes meet nearest to
+/// their midpoint, projected onto d = 0, is on it (exactly for planar faces). A surface point
+/// whose normals differ on either side of it lies on an edge itself. The points are
+/// thinned greedily, in the start's lattice order, to CREASE_SPACING target lengths apart and
+/// kept clear of the user's fixed points.
+fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap: f64) -> Result<Vec<DVec3>, Error> {
+    let opts = ctx.opts;
+    let uniform = opts.size.is_none();
+    let cos_max = CREASE_DEG.to_radians().cos();
+    let mut cells: Vec<&[i64; 3]> = grid.keys().collect();
+    cells.sort_unstable_by_key(|c| (c[2], c[1], c[0]));
+    // Each surface point with its unit normal and its size, computed once.
+    let mut normals: HashMap<[i64; 3], SmallVec<[(DVec3, DVec3); 4]>> = HashMap::with_capacity(cells.len());
+    for &c in &cells {
+        let list = grid[c].iter().map(|&q| (q, ctx.domain.gradient(q).normalize_or_zero())).collect();
+        normals.insert(*c, list);
+    }
+    let mut found: Vec<DVec3> = Vec::new();
+    for c in cells {
+        for &(q1, n1) in &normals[c] {
+            let h1 = if uniform { 1.0 } else { ctx.h(q1)? };
+            // A surface point on the edge itself (the projection of a lattice point as far from
+            // both faces ends there): the normals a hair's breadth away on either side differ.
+            let eps = CREASE_PROBE * gap * h1;
+            let probes = [DVec3::X, DVec3::NEG_X, DVec3::Y, DVec3::NEG_Y, DVec3::Z, DVec3::NEG_Z]
+                .map(|e| ctx.domain.gradient(q1 + e * eps).normalize_or_zero());
+            if probes.iter().any(|a| probes.iter().any(|b| a.dot(*b) < cos_max)) {
+                found.push(q1);
+            }
+            let reach = CREASE_REACH * gap * h1;
+            let span = (reach / gap).ceil() as i64;
+            for dz in -span..=span {
+                for dy in -span..=span {
+                    for dx in -span..=span {
+                        let Some(list) = normals.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else { continue };
+                        for &(q2, n2) in list {
+                            // Each pair once, in a fixed order.
+                            if q2.to_array() <= q1.to_array() || q2.distance(q1) > reach {
+                                continue;
+                            }
+                            let cos = n1.dot(n2);
+                            if cos > cos_max || cos < -cos_max {
+                                continue;
+                            }
+                            // x = m + alpha n1 + beta n2 on both tangent planes.
+                            let m = (q1 + q2) * 0.5;
+                            let (r1, r2) = (n1.dot(q1 - m), n2.dot(q2 - m));
+                            let det = 1.0 - cos * cos;
+                            let x = m + n1 * ((r1 - cos * r2) / det) + n2 * ((r2 - cos * r1) / det);
+                            if x.distance(m) > reach {
+                                continue;
+                            }
+                            let Some(p) = ctx.project(x)? else { continue };
+                            if p.distance(x) <= CREASE_TOL * gap * h1 {
+                                found.push(p);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let mut kept: Vec<DVec3> = Vec::new();
+    for p in found {
+        let h = if uniform { 1.0 } else { ctx.h(p)? };
+        let s = CREASE_SPACING * opts.h0 * h;
+        if kept.iter().any(|k| k.distance(p) < s) || opts.fixed.iter().any(|f| f.distance(p) < s) {
+            continue;
+        }
+        if p.cmplt(opts.bbox[0]).any() || p.cmpgt(opts.bbox[1]).any() {
+            continue;
+        }
+        kept.push(p);
+    }
+    Ok(kept)
 }
 
 /// Tags a mesh built from arrays: vertices on boundary faces `Boundary`, the fixed points
@@ -690,7 +812,7 @@ fn carve(ctx: &Ctx, m: &mut TetMesh, gone: &[TetId]) -> Result<bool, Error> {
     let mut kept: Vec<[usize; 4]> = tets.into_iter().zip(keep).filter(|x| x.1).map(|x| x.0).collect();
     // A carve whose pinches do not resolve is not made (the mesh as it is stays valid).
     let Ok(mut carved) = repair_pinches(&points, &mut kept) else { return Ok(false) };
-    let found = tag_built_mesh(&mut carved, &ctx.opts.fixed);
+    let found = tag_built_mesh(&mut carved, &ctx.fixed);
     if found < m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).count() {
         return Ok(false);
     }
@@ -2654,6 +2776,7 @@ mod tests {
             rng: 1,
             trace: false,
             polish_worst: 0.0,
+            fixed: Vec::new(),
         };
         let before = m.num_tets();
         assert_eq!(count_pieces(&m), 2);
