@@ -549,6 +549,7 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Error> {
             }
         }
         pts = kept;
+        ctx.report.sharp_edge_points = creases.len();
         ctx.fixed.extend(creases);
     }
     pts.extend(ctx.fixed.iter().copied());

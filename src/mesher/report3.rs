@@ -91,6 +91,8 @@ pub struct Report3 {
     pub smoothings: usize,
     /// Boundary nodes left farther than 1e-3 h0 from d = 0 (0 in a good run).
     pub boundary_nodes_off: usize,
+    /// Points the start put on sharp edges of the domain and held fixed.
+    pub sharp_edge_points: usize,
     /// Quality of the result.
     pub quality: QualityStats3,
 }
@@ -113,6 +115,9 @@ impl std::fmt::Display for Report3 {
             "{} flips, {} splits, {} collapses, {} smoothing moves",
             self.flips, self.splits, self.collapses, self.smoothings
         )?;
+        if self.sharp_edge_points > 0 {
+            write!(f, "\n{} points held on sharp edges", self.sharp_edge_points)?;
+        }
         if self.boundary_nodes_off > 0 {
             write!(
                 f,
