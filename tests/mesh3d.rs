@@ -7,7 +7,7 @@ use glam::DVec3;
 use std::f64::consts::PI;
 use trussmesh::geometry::{difference, Ball, Cylinder, Implicit3};
 use trussmesh::mesher::{boundary_deviation_3d, mesh_3d, size_deviation_3d, MeshOutput3, Options3};
-use trussmesh::topology::Level;
+use trussmesh::topology::{Level, VertexTag};
 use trussmesh::Error;
 
 struct Row {
@@ -153,6 +153,37 @@ fn cube_sharp_edges() {
             check_all(&r);
         }
     }
+}
+
+/// The points the start holds on sharp edges lie on the cube's edges (two coordinates at +-1, or
+/// three at a corner), about one target length apart, on all twelve edges; a ball has none.
+#[test]
+fn sharp_edge_points_lie_on_the_edges() {
+    let expr = trussmesh::expr::Expr::parse("max(max(abs(x),abs(y)),abs(z))-1").expect("parses");
+    let cube = trussmesh::expr::ExprImplicit3 { expr, distance: true };
+    let h0 = 0.2;
+    let out = mesh_3d(&cube, &Options3::uniform(h0, [-1.1; 3], [1.1; 3])).expect("meshes");
+    let m = &out.mesh;
+    let held: Vec<DVec3> = m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).map(|v| m.pos(v)).collect();
+    assert_eq!(held.len(), out.report.sharp_edge_points);
+    let on = |x: f64| (x.abs() - 1.0).abs() < 1e-9;
+    let mut per_edge = std::collections::BTreeMap::new();
+    for p in &held {
+        let c = p.to_array();
+        let at = c.iter().filter(|&&x| on(x)).count();
+        assert!(at >= 2, "{p:?} is on an edge");
+        if at == 3 {
+            continue;
+        }
+        let key: Vec<i32> = c.iter().map(|&x| if on(x) { x.signum() as i32 } else { 0 }).collect();
+        *per_edge.entry(key).or_insert(0usize) += 1;
+    }
+    // Each edge is 2 long: about 2 / h0 points, fewer near the corners.
+    assert_eq!(per_edge.len(), 12, "every edge: {per_edge:?}");
+    assert!(per_edge.values().all(|&n| (6..=10).contains(&n)), "{per_edge:?}");
+    let ball = Ball::new([0.0, 0.0, 0.0], 1.0);
+    let out = mesh_3d(&ball, &Options3::uniform(h0, [-1.1; 3], [1.1; 3])).expect("meshes");
+    assert_eq!(out.report.sharp_edge_points, 0);
 }
 
 #[test]
