@@ -234,13 +234,7 @@ impl Ctx<'_> {
     }
     /// Projects onto d = 0; `Ok(None)` when the projection does not converge (keep the point).
     fn project(&self, p: DVec2) -> Result<Option<DVec2>, Error> {
-        match project2(self.domain, p, self.projection, 1e-9 * self.opts.h0, 20) {
-            Ok(q) => Ok(Some(q)),
-            Err(ProjectError::NonFinite { value }) => {
-                Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, 0.0] })
-            }
-            Err(_) => Ok(None),
-        }
+        project_point(self.domain, self.projection, self.opts.h0, p)
     }
     /// True when an interior node's step from `a` to `b` would cross (or land on) an internal
     /// boundary: it is held back, so that no triangle straddles d_I = 0.
@@ -265,6 +259,17 @@ impl Ctx<'_> {
             let g = self.domain.gradient(p).length();
             Ok(if g > 0.0 && g.is_finite() { d / g } else { d })
         }
+    }
+}
+
+/// The projection of `p` onto d = 0 to within 1e-9 h0 (`None` when it does not converge).
+fn project_point(domain: &dyn Implicit2, projection: Projection, h0: f64, p: DVec2) -> Result<Option<DVec2>, Error> {
+    match project2(domain, p, projection, 1e-9 * h0, 20) {
+        Ok(q) => Ok(Some(q)),
+        Err(ProjectError::NonFinite { value }) => {
+            Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, 0.0] })
+        }
+        Err(_) => Ok(None),
     }
 }
 
@@ -305,13 +310,29 @@ pub(crate) fn run_moving(
         Projection::Auto => Projection::FirstOrder,
         p => p,
     };
+    // A fresh mesh holds the domain's sharp corners fixed (not with a metric, whose sizes
+    // need not follow the corners).
+    let corners = if start.is_none() && opts.metric.is_none() {
+        super::corners2d::find(domain, opts, survey.h_floor, &|p| project_point(domain, projection, opts.h0, p))?
+    } else {
+        Vec::new()
+    };
+    let with_corners;
+    let opts = if corners.is_empty() {
+        opts
+    } else {
+        let mut o = opts.clone();
+        o.fixed.extend(corners.iter().copied());
+        with_corners = o;
+        &with_corners
+    };
     let mut ctx = Ctx {
         domain,
         opts,
         projection,
         geps: 1e-3 * opts.h0,
         h_floor: survey.h_floor,
-        report: Report::default(),
+        report: Report { corner_points: corners.len(), ..Report::default() },
         left: 0,
         joined: 0,
         from_previous: start.is_some(),

@@ -608,12 +608,18 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
     let mut found: Vec<DVec3> = Vec::new();
     for c in cells {
         for &(q1, n1) in &normals[c] {
+            if n1.length_squared() < 0.5 {
+                continue;
+            }
             let h1 = if uniform { 1.0 } else { ctx.h(q1)? };
             // A surface point on the edge itself (the projection of a lattice point as far from
             // both faces ends there): the normals a hair's breadth away on either side differ.
             let eps = CREASE_PROBE * gap * h1;
             let probes = [DVec3::X, DVec3::NEG_X, DVec3::Y, DVec3::NEG_Y, DVec3::Z, DVec3::NEG_Z]
                 .map(|e| ctx.domain.gradient(q1 + e * eps).normalize_or_zero());
+            // A probe that lands on the surface itself may have no normal (a distance built
+            // from unsigned distances has no gradient there): it says nothing.
+            let probes: SmallVec<[DVec3; 6]> = probes.into_iter().filter(|n| n.length_squared() > 0.5).collect();
             if probes.iter().any(|a| probes.iter().any(|b| a.dot(*b) < cos_max)) {
                 found.push(q1);
             }
@@ -625,7 +631,7 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
                         let Some(list) = normals.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else { continue };
                         for &(q2, n2) in list {
                             // Each pair once, in a fixed order.
-                            if q2.to_array() <= q1.to_array() || q2.distance(q1) > reach {
+                            if q2.to_array() <= q1.to_array() || q2.distance(q1) > reach || n2.length_squared() < 0.5 {
                                 continue;
                             }
                             let cos = n1.dot(n2);

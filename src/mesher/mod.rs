@@ -2,6 +2,7 @@
 
 pub mod background;
 mod classic2d;
+mod corners2d;
 pub mod image;
 mod input;
 mod internal;

@@ -73,6 +73,8 @@ pub struct Report {
     pub boundary_nodes_off: usize,
     /// Internal-boundary nodes left farther than 1e-3 h0 from d_I = 0 (0 in a good run).
     pub internal_nodes_off: usize,
+    /// Sharp corners of the domain found and held fixed (besides the given fixed points).
+    pub corner_points: usize,
     /// Quality of the result.
     pub quality: QualityStats,
     /// With a metric: metric edge lengths and metric quality of the result.
@@ -93,6 +95,9 @@ impl std::fmt::Display for Report {
             q.q_min, q.q_mean, q.angle_min, q.angle_max
         )?;
         write!(f, "{} flips, {} splits, {} collapses", self.flips, self.splits, self.collapses)?;
+        if self.corner_points > 0 {
+            write!(f, "\n{} sharp corners held fixed", self.corner_points)?;
+        }
         if self.boundary_nodes_off > 0 {
             write!(
                 f,

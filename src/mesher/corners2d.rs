@@ -1,0 +1,123 @@
+//! Sharp corners of a 2-D domain, found from d alone, to be held as fixed points: the seed keeps
+//! sharp features with fixed points (section 2.5), and a corner left free is rounded off by the
+//! projection (a square without its corners given lost area at each of them).
+//!
+//! Boundary samples come from a grid: the grid points within one spacing of d = 0, projected
+//! onto it, each with its unit normal. Two samples closer than REACH spacings whose normals
+//! differ by more than CORNER_DEG degrees straddle a corner: the point where their tangent
+//! lines meet, projected onto d = 0, is on it (exactly where the sides are straight). A sample
+//! whose normals differ on either side of it lies on a corner itself. The candidates are thinned
+//! to one per SPACING target lengths, the first in grid order kept.
+
+use super::input::{eval_d, eval_h_floor};
+use super::Options2;
+use crate::geometry::Implicit2;
+use crate::Error;
+use glam::DVec2;
+use std::collections::HashMap;
+
+/// Normals differing by more than this many degrees mark a corner.
+const CORNER_DEG: f64 = 40.0;
+/// Pairs of samples are looked at up to this many grid spacings apart.
+const REACH: f64 = 1.6;
+/// A tangent lines' point is kept when the projection moves it by at most this many spacings:
+/// more, and the boundary is curved, not cornered, there.
+const TOL: f64 = 0.1;
+/// The probes of a sample's two sides are this many spacings away from it.
+const PROBE: f64 = 1e-3;
+/// Corner points are at least this many target lengths (h0 h) apart, and as far from the
+/// user's fixed points.
+const SPACING: f64 = 1.0;
+/// Grid points per side at most (as the survey).
+const MAX_SIDE: usize = 512;
+
+/// The corners of `domain` in `opts`'s box, not within a target length of a fixed point.
+/// `h_floor` is the smallest relative size inside (the survey's).
+pub(crate) fn find(
+    domain: &dyn Implicit2,
+    opts: &Options2,
+    h_floor: f64,
+    project: &dyn Fn(DVec2) -> Result<Option<DVec2>, Error>,
+) -> Result<Vec<DVec2>, Error> {
+    let [lo, hi] = opts.bbox;
+    let ext = hi - lo;
+    let nx = ((ext.x / opts.h0).ceil() as usize + 1).clamp(8, MAX_SIDE);
+    let ny = ((ext.y / opts.h0).ceil() as usize + 1).clamp(8, MAX_SIDE);
+    let step = DVec2::new(ext.x / (nx - 1) as f64, ext.y / (ny - 1) as f64);
+    let s = step.x.max(step.y);
+    let cos_max = CORNER_DEG.to_radians().cos();
+    let normal = |p: DVec2| domain.gradient(p).normalize_or_zero();
+    // Samples in grid order, and a hash of them by cell of side s.
+    let mut samples: Vec<(DVec2, DVec2)> = Vec::new();
+    let mut cells: HashMap<[i64; 2], Vec<usize>> = HashMap::new();
+    let cell = |p: DVec2| ((p - lo) / s).floor().as_i64vec2().to_array();
+    for j in 0..ny {
+        for i in 0..nx {
+            let p = lo + DVec2::new(i as f64, j as f64) * step;
+            let d = eval_d(domain, p)?;
+            let g = if domain.is_distance() { 1.0 } else { domain.gradient(p).length() };
+            if !(g > 0.0) || (d / g).abs() > s {
+                continue;
+            }
+            let Some(q) = project(p)? else { continue };
+            // The normal where d is smooth off the boundary: on it, a distance built from
+            // unsigned distances (a polygon's) has no gradient.
+            let n = [normal(p), normal(q)].into_iter().find(|n| n.length_squared() > 0.5);
+            let Some(n) = n else { continue };
+            cells.entry(cell(q)).or_default().push(samples.len());
+            samples.push((q, n));
+        }
+    }
+    let mut found: Vec<DVec2> = Vec::new();
+    let reach = REACH * s;
+    let span = REACH.ceil() as i64;
+    for (k, &(q1, n1)) in samples.iter().enumerate() {
+        let eps = PROBE * s;
+        let probes = [DVec2::X, DVec2::NEG_X, DVec2::Y, DVec2::NEG_Y].map(|e| normal(q1 + e * eps));
+        // A probe that lands on the boundary itself may have no normal: it says nothing.
+        let probes: Vec<DVec2> = probes.into_iter().filter(|n| n.length_squared() > 0.5).collect();
+        if probes.iter().any(|a| probes.iter().any(|b| a.dot(*b) < cos_max)) {
+            found.push(q1);
+        }
+        let c = cell(q1);
+        for dy in -span..=span {
+            for dx in -span..=span {
+                let Some(list) = cells.get(&[c[0] + dx, c[1] + dy]) else { continue };
+                for &k2 in list {
+                    // Each pair once.
+                    if k2 <= k {
+                        continue;
+                    }
+                    let (q2, n2) = samples[k2];
+                    let cos = n1.dot(n2);
+                    if q2.distance(q1) > reach || cos > cos_max || cos < -cos_max {
+                        continue;
+                    }
+                    // The tangent lines n1 . x = n1 . q1 and n2 . x = n2 . q2 meet at x.
+                    let det = n1.perp_dot(n2);
+                    let (r1, r2) = (n1.dot(q1), n2.dot(q2));
+                    let x = DVec2::new(r1 * n2.y - r2 * n1.y, n1.x * r2 - n2.x * r1) / det;
+                    if !x.is_finite() || x.distance((q1 + q2) * 0.5) > reach {
+                        continue;
+                    }
+                    let Some(p) = project(x)? else { continue };
+                    if p.distance(x) <= TOL * s {
+                        found.push(p);
+                    }
+                }
+            }
+        }
+    }
+    let mut kept: Vec<DVec2> = Vec::new();
+    for p in found {
+        if p.cmplt(lo).any() || p.cmpgt(hi).any() {
+            continue;
+        }
+        let gap = SPACING * opts.h0 * eval_h_floor(opts, p, h_floor)? / h_floor;
+        if kept.iter().chain(&opts.fixed).any(|k| k.distance(p) < gap) {
+            continue;
+        }
+        kept.push(p);
+    }
+    Ok(kept)
+}
