@@ -56,7 +56,8 @@ pub(crate) fn find(
             let p = lo + DVec2::new(i as f64, j as f64) * step;
             let d = eval_d(domain, p)?;
             let g = if domain.is_distance() { 1.0 } else { domain.gradient(p).length() };
-            if !(g > 0.0) || (d / g).abs() > s {
+            // (A NaN gradient fails the first test.)
+            if g.is_nan() || g <= 0.0 || (d / g).abs() > s {
                 continue;
             }
             let Some(q) = project(p)? else { continue };
