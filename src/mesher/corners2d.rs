@@ -7,7 +7,8 @@
 //! differ by more than CORNER_DEG degrees straddle a corner: the point where their tangent
 //! lines meet, projected onto d = 0, is on it (exactly where the sides are straight). A sample
 //! whose normals differ on either side of it lies on a corner itself. The candidates are thinned
-//! to one per SPACING target lengths, the first in grid order kept.
+//! to one per SPACING target lengths, the first in grid order kept, and each kept one is moved
+//! to where the tangent lines taken ever closer to it meet ([`refine`]: curved sides).
 
 use super::input::{eval_d, eval_h_floor};
 use super::Options2;
@@ -28,6 +29,8 @@ const PROBE: f64 = 1e-3;
 /// Corner points are at least this many target lengths (h0 h) apart, and as far from the
 /// user's fixed points.
 const SPACING: f64 = 1.0;
+/// Steps of [`refine`].
+const REFINE_STEPS: usize = 3;
 /// Grid points per side at most (as the survey).
 const MAX_SIDE: usize = 512;
 
@@ -69,16 +72,24 @@ pub(crate) fn find(
             samples.push((q, n));
         }
     }
-    let mut found: Vec<DVec2> = Vec::new();
+    // Candidates with the normals of their two sides.
+    let mut found: Vec<(DVec2, DVec2, DVec2)> = Vec::new();
     let reach = REACH * s;
     let span = REACH.ceil() as i64;
     for (k, &(q1, n1)) in samples.iter().enumerate() {
         let eps = PROBE * s;
-        let probes = [DVec2::X, DVec2::NEG_X, DVec2::Y, DVec2::NEG_Y].map(|e| normal(q1 + e * eps));
-        // A probe that lands on the boundary itself may have no normal: it says nothing.
+        // Probes a little inside (off the kink of d on d = 0) on every side of the sample.
+        let probes = [DVec2::X, DVec2::NEG_X, DVec2::Y, DVec2::NEG_Y].map(|e| normal(q1 + (e - n1) * eps));
+        // A probe without a normal says nothing.
         let probes: Vec<DVec2> = probes.into_iter().filter(|n| n.length_squared() > 0.5).collect();
-        if probes.iter().any(|a| probes.iter().any(|b| a.dot(*b) < cos_max)) {
-            found.push(q1);
+        let split = probes
+            .iter()
+            .flat_map(|&a| probes.iter().map(move |&b| (a.dot(b), a, b)))
+            .min_by(|x, y| x.0.total_cmp(&y.0));
+        if let Some((cos, a, b)) = split {
+            if cos < cos_max {
+                found.push((q1, a, b));
+            }
         }
         let c = cell(q1);
         for dy in -span..=span {
@@ -95,22 +106,20 @@ pub(crate) fn find(
                         continue;
                     }
                     // The tangent lines n1 . x = n1 . q1 and n2 . x = n2 . q2 meet at x.
-                    let det = n1.perp_dot(n2);
-                    let (r1, r2) = (n1.dot(q1), n2.dot(q2));
-                    let x = DVec2::new(r1 * n2.y - r2 * n1.y, n1.x * r2 - n2.x * r1) / det;
-                    if !x.is_finite() || x.distance((q1 + q2) * 0.5) > reach {
+                    let Some(x) = meet(q1, n1, q2, n2) else { continue };
+                    if x.distance((q1 + q2) * 0.5) > reach {
                         continue;
                     }
                     let Some(p) = project(x)? else { continue };
                     if p.distance(x) <= TOL * s {
-                        found.push(p);
+                        found.push((p, n1, n2));
                     }
                 }
             }
         }
     }
     let mut kept: Vec<DVec2> = Vec::new();
-    for p in found {
+    for (p, n1, n2) in found {
         if p.cmplt(lo).any() || p.cmpgt(hi).any() {
             continue;
         }
@@ -118,7 +127,58 @@ pub(crate) fn find(
         if kept.iter().chain(&opts.fixed).any(|k| k.distance(p) < gap) {
             continue;
         }
-        kept.push(p);
+        kept.push(refine(p, n1, n2, s, &normal, project)?);
     }
     Ok(kept)
+}
+
+/// Where the lines n1 . x = n1 . q1 and n2 . x = n2 . q2 meet (`None` when parallel).
+fn meet(q1: DVec2, n1: DVec2, q2: DVec2, n2: DVec2) -> Option<DVec2> {
+    let det = n1.perp_dot(n2);
+    let (r1, r2) = (n1.dot(q1), n2.dot(q2));
+    let x = DVec2::new(r1 * n2.y - r2 * n1.y, n1.x * r2 - n2.x * r1) / det;
+    x.is_finite().then_some(x)
+}
+
+/// Moves the corner `p` (sides of normals `n1`, `n2`) to where the two sides' tangent lines
+/// meet, taken at points of each side ever closer to it (REFINE_STEPS steps, from a tenth of
+/// the spacing `s` down by ten each): exact already for straight sides, and for curved ones
+/// the error falls with the square of the distance to the corner.
+fn refine(
+    p: DVec2,
+    n1: DVec2,
+    n2: DVec2,
+    s: f64,
+    normal: &dyn Fn(DVec2) -> DVec2,
+    project: &dyn Fn(DVec2) -> Result<Option<DVec2>, Error>,
+) -> Result<DVec2, Error> {
+    let (mut x, mut a, mut b) = (p, n1, n2);
+    let mut delta = 0.1 * s;
+    for _ in 0..REFINE_STEPS {
+        // A point of each side, delta from the corner: of the two ways along its tangent, the
+        // one whose normal stays with the side.
+        let side = |n: DVec2| -> Result<Option<(DVec2, DVec2)>, Error> {
+            let mut best: Option<(f64, DVec2, DVec2)> = None;
+            for t in [n.perp(), -n.perp()] {
+                if let Some(q) = project(x + t * delta)? {
+                    // Taken a little inside: on d = 0 a distance built from unsigned distances
+                    // has a kink, and its gradient there can be anything.
+                    let m = normal(q - n * (1e-3 * delta));
+                    if m.length_squared() > 0.5 && best.map_or(true, |(c, _, _)| m.dot(n) > c) {
+                        best = Some((m.dot(n), q, m));
+                    }
+                }
+            }
+            Ok(best.map(|(_, q, m)| (q, m)))
+        };
+        let (Some((q1, m1)), Some((q2, m2))) = (side(a)?, side(b)?) else { break };
+        let Some(y) = meet(q1, m1, q2, m2) else { break };
+        let Some(y) = project(y)? else { break };
+        if y.distance(x) > 2.0 * delta {
+            break;
+        }
+        (x, a, b) = (y, m1, m2);
+        delta *= 0.1;
+    }
+    Ok(x)
 }

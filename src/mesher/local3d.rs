@@ -615,10 +615,11 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
             // A surface point on the edge itself (the projection of a lattice point as far from
             // both faces ends there): the normals a hair's breadth away on either side differ.
             let eps = CREASE_PROBE * gap * h1;
+            // Probes a little inside (a distance built from unsigned distances has a kink on
+            // d = 0, where its gradient can be anything), on every side of the point.
             let probes = [DVec3::X, DVec3::NEG_X, DVec3::Y, DVec3::NEG_Y, DVec3::Z, DVec3::NEG_Z]
-                .map(|e| ctx.domain.gradient(q1 + e * eps).normalize_or_zero());
-            // A probe that lands on the surface itself may have no normal (a distance built
-            // from unsigned distances has no gradient there): it says nothing.
+                .map(|e| ctx.domain.gradient(q1 + (e - n1) * eps).normalize_or_zero());
+            // A probe without a normal says nothing.
             let probes: SmallVec<[DVec3; 6]> = probes.into_iter().filter(|n| n.length_squared() > 0.5).collect();
             if probes.iter().any(|a| probes.iter().any(|b| a.dot(*b) < cos_max)) {
                 found.push(q1);
