@@ -155,8 +155,9 @@ fn cube_sharp_edges() {
     }
 }
 
-/// The points the start holds on sharp edges lie on the cube's edges (two coordinates at +-1, or
-/// three at a corner), about one target length apart, on all twelve edges; a ball has none.
+/// The points the start holds on sharp edges lie on the cube's edges (two coordinates at +-1),
+/// about one target length apart, on all twelve edges, and on all eight corners (three at
+/// +-1); a ball has none.
 #[test]
 fn sharp_edge_points_lie_on_the_edges() {
     let expr = trussmesh::expr::Expr::parse("max(max(abs(x),abs(y)),abs(z))-1").expect("parses");
@@ -168,11 +169,13 @@ fn sharp_edge_points_lie_on_the_edges() {
     assert_eq!(held.len(), out.report.sharp_edge_points);
     let on = |x: f64| (x.abs() - 1.0).abs() < 1e-9;
     let mut per_edge = std::collections::BTreeMap::new();
+    let mut corners = 0;
     for p in &held {
         let c = p.to_array();
         let at = c.iter().filter(|&&x| on(x)).count();
         assert!(at >= 2, "{p:?} is on an edge");
         if at == 3 {
+            corners += 1;
             continue;
         }
         let key: Vec<i32> = c.iter().map(|&x| if on(x) { x.signum() as i32 } else { 0 }).collect();
@@ -180,6 +183,7 @@ fn sharp_edge_points_lie_on_the_edges() {
     }
     // Each edge is 2 long: about 2 / h0 points, fewer near the corners.
     assert_eq!(per_edge.len(), 12, "every edge: {per_edge:?}");
+    assert_eq!(corners, 8, "every corner");
     assert!(per_edge.values().all(|&n| (6..=10).contains(&n)), "{per_edge:?}");
     let ball = Ball::new([0.0, 0.0, 0.0], 1.0);
     let out = mesh_3d(&ball, &Options3::uniform(h0, [-1.1; 3], [1.1; 3])).expect("meshes");

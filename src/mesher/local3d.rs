@@ -605,7 +605,8 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
         let list = grid[c].iter().map(|&q| (q, ctx.domain.gradient(q).normalize_or_zero())).collect();
         normals.insert(*c, list);
     }
-    let mut found: Vec<DVec3> = Vec::new();
+    // Points on edges with the normals of their two faces.
+    let mut found: Vec<(DVec3, DVec3, DVec3)> = Vec::new();
     for c in cells {
         for &(q1, n1) in &normals[c] {
             if n1.length_squared() < 0.5 {
@@ -621,8 +622,14 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
                 .map(|e| ctx.domain.gradient(q1 + (e - n1) * eps).normalize_or_zero());
             // A probe without a normal says nothing.
             let probes: SmallVec<[DVec3; 6]> = probes.into_iter().filter(|n| n.length_squared() > 0.5).collect();
-            if probes.iter().any(|a| probes.iter().any(|b| a.dot(*b) < cos_max)) {
-                found.push(q1);
+            let split = probes
+                .iter()
+                .flat_map(|&a| probes.iter().map(move |&b| (a.dot(b), a, b)))
+                .min_by(|x, y| x.0.total_cmp(&y.0));
+            if let Some((cos, a, b)) = split {
+                if cos < cos_max {
+                    found.push((q1, a, b));
+                }
             }
             let reach = CREASE_REACH * gap * h1;
             let span = (reach / gap).ceil() as i64;
@@ -649,7 +656,7 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
                             }
                             let Some(p) = ctx.project(x)? else { continue };
                             if p.distance(x) <= CREASE_TOL * gap * h1 {
-                                found.push(p);
+                                found.push((p, n1, n2));
                             }
                         }
                     }
@@ -657,8 +664,9 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
             }
         }
     }
+    let corners = corner_points(ctx, &found, gap, cos_max)?;
     let mut kept: Vec<DVec3> = Vec::new();
-    for p in found {
+    for p in corners.into_iter().chain(found.into_iter().map(|f| f.0)) {
         let h = if uniform { 1.0 } else { ctx.h(p)? };
         let s = CREASE_SPACING * opts.h0 * h;
         if kept.iter().any(|k| k.distance(p) < s) || opts.fixed.iter().any(|f| f.distance(p) < s) {
@@ -670,6 +678,61 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
         kept.push(p);
     }
     Ok(kept)
+}
+
+/// Corners where three faces meet, from the points on edges (`found`, each with the normals of
+/// its two faces): two such points within reach whose faces bring a third normal (more than
+/// CREASE_DEG from both of the first point's) meet at the point of all three tangent planes,
+/// kept when its projection onto d = 0 hardly moves it. They go first into the thinning.
+fn corner_points(ctx: &Ctx, found: &[(DVec3, DVec3, DVec3)], gap: f64, cos_max: f64) -> Result<Vec<DVec3>, Error> {
+    let uniform = ctx.opts.size.is_none();
+    let cell = |p: DVec3| (p / gap).floor().as_i64vec3().to_array();
+    let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    for (k, f) in found.iter().enumerate() {
+        cells.entry(cell(f.0)).or_default().push(k);
+    }
+    let distinct = |n: DVec3, m: DVec3| {
+        let c = n.dot(m);
+        c < cos_max && c > -cos_max
+    };
+    let mut corners = Vec::new();
+    for (k, &(pa, a1, a2)) in found.iter().enumerate() {
+        let h = if uniform { 1.0 } else { ctx.h(pa)? };
+        let reach = CREASE_REACH * gap * h;
+        let span = (reach / gap).ceil() as i64;
+        let c = cell(pa);
+        for dz in -span..=span {
+            for dy in -span..=span {
+                for dx in -span..=span {
+                    let Some(list) = cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else { continue };
+                    for &j in list {
+                        let (pb, b1, b2) = found[j];
+                        if j <= k || pb.distance(pa) > reach {
+                            continue;
+                        }
+                        for nb in [b1, b2] {
+                            if !distinct(nb, a1) || !distinct(nb, a2) {
+                                continue;
+                            }
+                            let m = glam::DMat3::from_cols(a1, a2, nb).transpose();
+                            if m.determinant().abs() < 0.1 {
+                                continue;
+                            }
+                            let x = m.inverse() * DVec3::new(a1.dot(pa), a2.dot(pa), nb.dot(pb));
+                            if !x.is_finite() || x.distance(pa) > reach {
+                                continue;
+                            }
+                            let Some(p) = ctx.project(x)? else { continue };
+                            if p.distance(x) <= CREASE_TOL * gap * h {
+                                corners.push(p);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok(corners)
 }
 
 /// Tags a mesh built from arrays: vertices on boundary faces `Boundary`, the fixed points
