@@ -590,16 +590,17 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Error> {
 /// of side `gap`) closer than CREASE_REACH gaps whose normals differ by more than CREASE_DEG
 /// degrees straddle an edge: the point of the line where their tangent planes meet nearest to
 /// their midpoint, projected onto d = 0, is on it (exactly for planar faces). A surface point
-/// whose normals differ on either side of it lies on an edge itself. The points are
-/// thinned greedily, in the start's lattice order, to CREASE_SPACING target lengths apart and
-/// kept clear of the user's fixed points.
+/// whose normals differ on either side of it lies on an edge itself. The corners where three
+/// faces meet ([`corner_points`]) and then these points are thinned greedily, in the start's
+/// lattice order, to CREASE_SPACING target lengths apart and kept clear of the user's fixed
+/// points.
 fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap: f64) -> Result<Vec<DVec3>, Error> {
     let opts = ctx.opts;
     let uniform = opts.size.is_none();
     let cos_max = CREASE_DEG.to_radians().cos();
     let mut cells: Vec<&[i64; 3]> = grid.keys().collect();
     cells.sort_unstable_by_key(|c| (c[2], c[1], c[0]));
-    // Each surface point with its unit normal and its size, computed once.
+    // Each surface point with its unit normal, computed once.
     let mut normals: HashMap<[i64; 3], SmallVec<[(DVec3, DVec3); 4]>> = HashMap::with_capacity(cells.len());
     for &c in &cells {
         let list = grid[c].iter().map(|&q| (q, ctx.domain.gradient(q).normalize_or_zero())).collect();
