@@ -190,6 +190,23 @@ fn sharp_edge_points_lie_on_the_edges() {
     assert_eq!(out.report.sharp_edge_points, 0);
 }
 
+/// On a curved edge (the rims of a cylinder written with max(), as on the command line) the
+/// held points lie on the edge itself: the tangent planes are taken ever closer to it.
+#[test]
+fn points_on_curved_edges_lie_on_them() {
+    let expr = trussmesh::expr::Expr::parse("max(sqrt(x^2+y^2)-1, abs(z)-1)").expect("parses");
+    let cyl = trussmesh::expr::ExprImplicit3 { expr, distance: true };
+    let out = mesh_3d(&cyl, &Options3::uniform(0.15, [-1.1; 3], [1.1; 3])).expect("meshes");
+    let m = &out.mesh;
+    let held: Vec<DVec3> = m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).map(|v| m.pos(v)).collect();
+    // Greedy thinning at one target length leaves gaps below two: at least 4 pi / 0.3 points.
+    assert!(held.len() >= 42, "two rims of length 2 pi at h0 = 0.15: {} points", held.len());
+    for p in &held {
+        let (r, z) = (p.truncate().length(), p.z.abs());
+        assert!((r - 1.0).abs() < 1e-6 && (z - 1.0).abs() < 1e-6, "{p:?} on a rim (r {r}, |z| {z})");
+    }
+}
+
 #[test]
 fn cylinder_minus_ball_mean_quality() {
     let (d, o, v) = cyl_minus_ball();
