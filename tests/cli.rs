@@ -376,3 +376,26 @@ fn help_works() {
     let (code, _, err) = run(&dir, &["mesh", "--no-such-flag"]);
     assert_eq!(code, 2, "{err}");
 }
+
+#[test]
+fn sharp_corners_are_held_unless_turned_off() {
+    let dir = tmp("sharp");
+    let base = ["mesh", "--domain", "drectangle(x,y,-1,1,-1,1)", "--h0", "0.2", "--bbox", "-1,-1,1,1", "-o", "sq.json"];
+    let (code, out, err) = run(&dir, &base);
+    assert_eq!(code, 0, "{err}");
+    assert!(format!("{out}{err}").contains("4 sharp corners held fixed"), "{out}{err}");
+    let mut off = base.to_vec();
+    off.push("--no-sharp");
+    let (code, out, err) = run(&dir, &off);
+    assert_eq!(code, 0, "{err}");
+    assert!(!format!("{out}{err}").contains("sharp corners"), "{out}{err}");
+    // The same in a scene file.
+    std::fs::write(
+        dir.join("scene.toml"),
+        "domain = \"drectangle(x,y,-1,1,-1,1)\"\nh0 = 0.2\nbbox = [-1, -1, 1, 1]\nsharp = false\noutput = [\"s.json\"]\n",
+    )
+    .unwrap();
+    let (code, out, err) = run(&dir, &["mesh", "scene.toml"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!format!("{out}{err}").contains("sharp corners"), "{out}{err}");
+}

@@ -37,6 +37,18 @@ fn square_keeps_its_corners() {
     }
 }
 
+/// Turned off, the corners are not looked for and the projection rounds them off.
+#[test]
+fn corners_can_be_turned_off() {
+    let d = ExprImplicit2 { expr: Expr::parse("drectangle(x,y,-1,1,-1,1)").expect("parses"), distance: true };
+    let o = Options2::uniform(0.17, [-1.0, -1.0], [1.0, 1.0]).with_sharp_corners(false);
+    let out = mesh_2d(&d, &o).expect("meshes");
+    out.mesh.validate(Level::Geometry).expect("valid");
+    assert_eq!(out.report.corner_points, 0);
+    assert!(fixed(&out).is_empty());
+    assert!(area(&out.mesh) < 4.0 - 1e-4, "corners cut: area {}", area(&out.mesh));
+}
+
 #[test]
 fn hexagon_with_a_hole_keeps_all_twelve_corners() {
     let outer = "dpoly(x,y, 1,0, 0.5,sqrt(3)/2, -0.5,sqrt(3)/2, -1,0, -0.5,-sqrt(3)/2, 0.5,-sqrt(3)/2)";

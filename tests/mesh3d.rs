@@ -188,6 +188,10 @@ fn sharp_edge_points_lie_on_the_edges() {
     let ball = Ball::new([0.0, 0.0, 0.0], 1.0);
     let out = mesh_3d(&ball, &Options3::uniform(h0, [-1.1; 3], [1.1; 3])).expect("meshes");
     assert_eq!(out.report.sharp_edge_points, 0);
+    // Turned off, nothing is held.
+    let out = mesh_3d(&cube, &Options3::uniform(h0, [-1.1; 3], [1.1; 3]).with_sharp_edges(false)).expect("meshes");
+    assert_eq!(out.report.sharp_edge_points, 0);
+    assert!(out.mesh.vertex_ids().all(|v| out.mesh.tag(v) != VertexTag::Fixed));
 }
 
 /// On a curved edge (the rims of a cylinder written with max(), as on the command line) the

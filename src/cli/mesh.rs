@@ -41,14 +41,28 @@ impl From<ProjectionArg> for Projection {
     }
 }
 
-const FLAGS: [&str; 12] =
-    ["dim", "domain", "size", "h0", "bbox", "fix", "max_iter", "seed", "projection", "implicit", "internal", "metric"];
+const FLAGS: [&str; 13] = [
+    "dim",
+    "domain",
+    "size",
+    "h0",
+    "bbox",
+    "fix",
+    "max_iter",
+    "seed",
+    "projection",
+    "implicit",
+    "internal",
+    "metric",
+    "no_sharp",
+];
 
 /// Mesh {d < 0} given by expressions in x, y (z), or by a scene file.
 #[derive(Args, Debug, Default)]
 pub struct MeshArgs {
     /// A TOML scene file with the same fields as the flags (dim, domain, size, h0, bbox, fix,
-    /// max_iter, seed, projection, implicit, internal, metric, output).
+    /// max_iter, seed, projection, implicit, internal, metric, output; `sharp = false` for
+    /// --no-sharp).
     #[arg(value_name = "SCENE.toml", conflicts_with_all = FLAGS)]
     pub scene: Option<PathBuf>,
     /// Dimension.
@@ -89,6 +103,10 @@ pub struct MeshArgs {
     /// x, y; replaces --size, and --h0 then only sets tolerances (about the smallest size).
     #[arg(long, value_name = "A;B;C", allow_hyphen_values = true)]
     pub metric: Option<String>,
+    /// Do not look for sharp corners (and in 3-D sharp edges) to hold fixed: they are rounded
+    /// off unless given with --fix.
+    #[arg(long)]
+    pub no_sharp: bool,
     /// Output file; the extension picks the format (.json .vtu .msh .mesh .obj .stl .ply .svg .png).
     #[arg(short = 'o', long = "output", value_name = "FILE")]
     pub output: Vec<PathBuf>,
@@ -129,6 +147,7 @@ struct SceneFile {
     implicit: Option<bool>,
     internal: Option<String>,
     metric: Option<String>,
+    sharp: Option<bool>,
     output: Option<Vec<PathBuf>>,
 }
 
@@ -147,6 +166,8 @@ pub struct Spec {
     pub implicit: bool,
     pub internal: Option<String>,
     pub metric: Option<String>,
+    /// Find sharp features and hold them fixed.
+    pub sharp: bool,
     pub outputs: Vec<PathBuf>,
 }
 
@@ -164,6 +185,7 @@ pub struct Job {
     pub implicit: bool,
     pub internal: Option<Expr>,
     pub metric: Option<[Expr; 3]>,
+    pub sharp: bool,
     pub outputs: Vec<PathBuf>,
 }
 
@@ -219,6 +241,7 @@ impl MeshArgs {
                 implicit: s.implicit.unwrap_or(false),
                 internal: s.internal,
                 metric: s.metric,
+                sharp: s.sharp.unwrap_or(true),
                 outputs,
             });
         }
@@ -246,6 +269,7 @@ impl MeshArgs {
             implicit: self.implicit,
             internal: self.internal.clone(),
             metric: self.metric.clone(),
+            sharp: !self.no_sharp,
             outputs: self.output.clone(),
         })
     }
@@ -391,6 +415,7 @@ impl Spec {
             implicit: self.implicit,
             internal,
             metric,
+            sharp: self.sharp,
             outputs: self.outputs.clone(),
         })
     }
@@ -469,7 +494,7 @@ impl Job {
         if let Some(pb) = progress {
             o = o.with_progress(progress_callback(pb));
         }
-        o
+        o.with_sharp_corners(self.sharp)
     }
 
     /// The 3-D mesher's options.
@@ -493,7 +518,7 @@ impl Job {
         if let Some(pb) = progress {
             o = o.with_progress(progress_callback(pb));
         }
-        o
+        o.with_sharp_edges(self.sharp)
     }
 
     /// Meshes in 2-D or 3-D.

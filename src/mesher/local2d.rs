@@ -312,7 +312,7 @@ pub(crate) fn run_moving(
     };
     // A fresh mesh holds the domain's sharp corners fixed (not with a metric, whose sizes
     // need not follow the corners).
-    let corners = if start.is_none() && opts.metric.is_none() {
+    let corners = if start.is_none() && opts.metric.is_none() && opts.sharp_corners {
         super::corners2d::find(domain, opts, survey.h_floor, &|p| project_point(domain, projection, opts.h0, p))?
     } else {
         Vec::new()

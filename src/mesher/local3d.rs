@@ -530,7 +530,7 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Error> {
         }
     }
     let t_crease = Instant::now();
-    let creases = crease_points(ctx, &grid, gap)?;
+    let creases = if opts.sharp_edges { crease_points(ctx, &grid, gap)? } else { Vec::new() };
     if ctx.trace {
         eprintln!(
             "start: {} points on sharp edges, held fixed ({:.3} s)",

@@ -59,6 +59,9 @@ pub struct Options2 {
     /// edge has length one in M. h0 then only sets tolerances and should be about the
     /// smallest size.
     pub metric: Option<MetricFn2>,
+    /// Find the domain's sharp corners from d and hold them fixed (on by default; a fresh mesh
+    /// without a metric).
+    pub sharp_corners: bool,
 }
 
 impl std::fmt::Debug for Options2 {
@@ -74,6 +77,7 @@ impl std::fmt::Debug for Options2 {
             .field("strategy", &self.strategy)
             .field("internal", &self.internal.as_ref().map(|_| "fn"))
             .field("metric", &self.metric.as_ref().map(|_| "fn"))
+            .field("sharp_corners", &self.sharp_corners)
             .finish()
     }
 }
@@ -112,7 +116,14 @@ impl Options2 {
             progress: None,
             internal: None,
             metric: None,
+            sharp_corners: true,
         }
+    }
+    /// Whether to find the domain's sharp corners and hold them fixed (default true; off, they
+    /// are rounded off unless given as fixed points).
+    pub fn with_sharp_corners(mut self, on: bool) -> Self {
+        self.sharp_corners = on;
+        self
     }
     /// Sets the relative size function.
     pub fn with_size(mut self, h: impl Fn(DVec2) -> f64 + Send + Sync + 'static) -> Self {

@@ -38,6 +38,9 @@ pub struct Options3 {
     pub polish_rounds: usize,
     /// Progress callback: (iteration, iteration cap).
     pub progress: Option<ProgressFn>,
+    /// Find the domain's sharp edges and corners from d and hold points on them fixed (on by
+    /// default).
+    pub sharp_edges: bool,
 }
 
 impl std::fmt::Debug for Options3 {
@@ -52,6 +55,7 @@ impl std::fmt::Debug for Options3 {
             .field("projection", &self.projection)
             .field("fscale", &self.fscale)
             .field("deltat", &self.deltat)
+            .field("sharp_edges", &self.sharp_edges)
             .finish()
     }
 }
@@ -87,7 +91,14 @@ impl Options3 {
             dptol: Self::DEFAULT_DPTOL,
             polish_rounds: Self::DEFAULT_POLISH_ROUNDS,
             progress: None,
+            sharp_edges: true,
         }
+    }
+    /// Whether to find the domain's sharp edges and corners and hold points on them fixed
+    /// (default true; off, they are rounded off unless given as fixed points).
+    pub fn with_sharp_edges(mut self, on: bool) -> Self {
+        self.sharp_edges = on;
+        self
     }
     /// Sets the relative size function.
     pub fn with_size(mut self, h: impl Fn(DVec3) -> f64 + Send + Sync + 'static) -> Self {
