@@ -4,33 +4,20 @@
 //!
 //! Boundary samples come from a grid: the grid points within one spacing of d = 0, projected
 //! onto it, each with its unit normal. Two samples closer than REACH spacings whose normals
-//! differ by more than CORNER_DEG degrees straddle a corner: the point where their tangent
+//! differ by more than SHARP_DEG degrees straddle a corner: the point where their tangent
 //! lines meet, projected onto d = 0, is on it (exactly where the sides are straight). A sample
 //! whose normals differ on either side of it lies on a corner itself. The candidates are thinned
 //! to one per SPACING target lengths, the first in grid order kept, and each kept one is moved
 //! to where the tangent lines taken ever closer to it meet ([`refine`]: curved sides).
 
 use super::input::{eval_d, eval_h_floor};
+use super::sharp::{PROBE, REACH, REFINE_STEPS, SHARP_DEG, SPACING, TOL};
 use super::Options2;
 use crate::geometry::Implicit2;
 use crate::Error;
 use glam::DVec2;
 use std::collections::HashMap;
 
-/// Normals differing by more than this many degrees mark a corner.
-const CORNER_DEG: f64 = 40.0;
-/// Pairs of samples are looked at up to this many grid spacings apart.
-const REACH: f64 = 1.6;
-/// A tangent lines' point is kept when the projection moves it by at most this many spacings:
-/// more, and the boundary is curved, not cornered, there.
-const TOL: f64 = 0.1;
-/// The probes of a sample's two sides are this many spacings away from it.
-const PROBE: f64 = 1e-3;
-/// Corner points are at least this many target lengths (h0 h) apart, and as far from the
-/// user's fixed points.
-const SPACING: f64 = 1.0;
-/// Steps of [`refine`].
-const REFINE_STEPS: usize = 3;
 /// Grid points per side at most (as the survey).
 const MAX_SIDE: usize = 512;
 
@@ -48,7 +35,7 @@ pub(crate) fn find(
     let ny = ((ext.y / opts.h0).ceil() as usize + 1).clamp(8, MAX_SIDE);
     let step = DVec2::new(ext.x / (nx - 1) as f64, ext.y / (ny - 1) as f64);
     let s = step.x.max(step.y);
-    let cos_max = CORNER_DEG.to_radians().cos();
+    let cos_max = SHARP_DEG.to_radians().cos();
     let normal = |p: DVec2| domain.gradient(p).normalize_or_zero();
     // Samples in grid order, and a hash of them by cell of side s.
     let mut samples: Vec<(DVec2, DVec2)> = Vec::new();

@@ -27,6 +27,7 @@
 
 use super::options3::Options3;
 use super::report3::{QualityStats3, Report3};
+use super::sharp;
 use super::MeshOutput3;
 use crate::geometry::project::{project3, ProjectError, Projection};
 use crate::geometry::Implicit3;
@@ -47,21 +48,6 @@ const LATTICE: f64 = 1.1;
 const SPECK_TETS: usize = 10;
 /// The interior lattice points' offset, in lattice sides (see [`jitter`]).
 const LATTICE_JITTER: f64 = 1e-6;
-/// Surface start points whose normals differ by more than this many degrees straddle a sharp
-/// edge ([`crease_points`]).
-const CREASE_DEG: f64 = 40.0;
-/// Pairs of surface start points are looked at up to this many surface gaps (times h) apart.
-const CREASE_REACH: f64 = 1.6;
-/// A crease point is kept when the projection moves the tangent planes' point by at most this
-/// many surface gaps (times h): more, and the surface is curved, not creased, there.
-const CREASE_TOL: f64 = 0.1;
-/// A surface point is on a sharp edge when the normals this many surface gaps (times h) away
-/// from it differ by more than CREASE_DEG.
-const CREASE_PROBE: f64 = 1e-3;
-/// Steps of [`refine_edge_point`].
-const CREASE_REFINE: usize = 3;
-/// Points on sharp edges are at least this many target lengths (h0 h) apart.
-const CREASE_SPACING: f64 = 1.0;
 /// Surface start points are at least this many lattice sides (times h) apart.
 const SURFACE_GAP: f64 = 0.9;
 /// Lattice points deeper than this many lattice sides (times h) are interior start points.
@@ -589,17 +575,17 @@ fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Error> {
 /// holds fixed: the seed keeps sharp features with fixed points, and a polyhedron meshed
 /// without them folds its boundary where nodes near an edge are projected onto one face or the
 /// other (the cube at h0 = 0.17 kept 0-degree tets). Two surface start points (`grid`, cells
-/// of side `gap`) closer than CREASE_REACH gaps whose normals differ by more than CREASE_DEG
+/// of side `gap`) closer than sharp::REACH gaps whose normals differ by more than sharp::SHARP_DEG
 /// degrees straddle an edge: the point of the line where their tangent planes meet nearest to
 /// their midpoint, projected onto d = 0, is on it (exactly for planar faces). A surface point
 /// whose normals differ on either side of it lies on an edge itself. The corners where three
 /// faces meet ([`corner_points`]) and then these points are thinned greedily, in the start's
-/// lattice order, to CREASE_SPACING target lengths apart and kept clear of the user's fixed
+/// lattice order, to sharp::SPACING target lengths apart and kept clear of the user's fixed
 /// points.
 fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap: f64) -> Result<Vec<DVec3>, Error> {
     let opts = ctx.opts;
     let uniform = opts.size.is_none();
-    let cos_max = CREASE_DEG.to_radians().cos();
+    let cos_max = sharp::SHARP_DEG.to_radians().cos();
     let mut cells: Vec<&[i64; 3]> = grid.keys().collect();
     cells.sort_unstable_by_key(|c| (c[2], c[1], c[0]));
     // Each surface point with its unit normal, computed once.
@@ -618,7 +604,7 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
             let h1 = if uniform { 1.0 } else { ctx.h(q1)? };
             // A surface point on the edge itself (the projection of a lattice point as far from
             // both faces ends there): the normals a hair's breadth away on either side differ.
-            let eps = CREASE_PROBE * gap * h1;
+            let eps = sharp::PROBE * gap * h1;
             // Probes a little inside (a distance built from unsigned distances has a kink on
             // d = 0, where its gradient can be anything), on every side of the point.
             let probes = [DVec3::X, DVec3::NEG_X, DVec3::Y, DVec3::NEG_Y, DVec3::Z, DVec3::NEG_Z]
@@ -634,7 +620,7 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
                     found.push((q1, a, b));
                 }
             }
-            let reach = CREASE_REACH * gap * h1;
+            let reach = sharp::REACH * gap * h1;
             let span = (reach / gap).ceil() as i64;
             for dz in -span..=span {
                 for dy in -span..=span {
@@ -658,7 +644,7 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
                                 continue;
                             }
                             let Some(p) = ctx.project(x)? else { continue };
-                            if p.distance(x) <= CREASE_TOL * gap * h1 {
+                            if p.distance(x) <= sharp::TOL * gap * h1 {
                                 found.push((p, n1, n2));
                             }
                         }
@@ -673,7 +659,7 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
     let candidates = corners.into_iter().map(|p| (p, None)).chain(found.into_iter().map(|f| (f.0, Some((f.1, f.2)))));
     for (k, (p, faces)) in candidates.enumerate() {
         let h = if uniform { 1.0 } else { ctx.h(p)? };
-        let s = CREASE_SPACING * opts.h0 * h;
+        let s = sharp::SPACING * opts.h0 * h;
         if kept.iter().any(|k| k.distance(p) < s) || opts.fixed.iter().any(|f| f.distance(p) < s) {
             continue;
         }
@@ -691,12 +677,12 @@ fn crease_points(ctx: &Ctx, grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>, gap:
 
 /// Moves the edge point `p` (faces of normals `n1`, `n2`) to the point nearest it on the line
 /// where the faces' tangent planes meet, the planes taken at points of each face ever closer to
-/// it (from a tenth of `s` down by ten each, CREASE_REFINE steps): exact already for planar
+/// it (from a tenth of `s` down by ten each, sharp::REFINE_STEPS steps): exact already for planar
 /// faces; on a curved edge (a cylinder's rim) the error falls with the square of the distance.
 fn refine_edge_point(ctx: &Ctx, p: DVec3, n1: DVec3, n2: DVec3, s: f64) -> Result<DVec3, Error> {
     let (mut x, mut a, mut b) = (p, n1, n2);
     let mut delta = 0.1 * s;
-    for _ in 0..CREASE_REFINE {
+    for _ in 0..sharp::REFINE_STEPS {
         // A point of each face, delta from the edge across it: of the two ways, the one whose
         // normal (taken a little inside) stays with the face.
         let face = |n: DVec3, other: DVec3| -> Result<Option<(DVec3, DVec3)>, Error> {
@@ -733,7 +719,7 @@ fn refine_edge_point(ctx: &Ctx, p: DVec3, n1: DVec3, n2: DVec3, s: f64) -> Resul
 
 /// Corners where three faces meet, from the points on edges (`found`, each with the normals of
 /// its two faces): two such points within reach whose faces bring a third normal (more than
-/// CREASE_DEG from both of the first point's) meet at the point of all three tangent planes,
+/// sharp::SHARP_DEG from both of the first point's) meet at the point of all three tangent planes,
 /// kept when its projection onto d = 0 hardly moves it. They go first into the thinning.
 fn corner_points(ctx: &Ctx, found: &[(DVec3, DVec3, DVec3)], gap: f64, cos_max: f64) -> Result<Vec<DVec3>, Error> {
     let uniform = ctx.opts.size.is_none();
@@ -749,7 +735,7 @@ fn corner_points(ctx: &Ctx, found: &[(DVec3, DVec3, DVec3)], gap: f64, cos_max: 
     let mut corners = Vec::new();
     for (k, &(pa, a1, a2)) in found.iter().enumerate() {
         let h = if uniform { 1.0 } else { ctx.h(pa)? };
-        let reach = CREASE_REACH * gap * h;
+        let reach = sharp::REACH * gap * h;
         let span = (reach / gap).ceil() as i64;
         let c = cell(pa);
         for dz in -span..=span {
@@ -774,7 +760,7 @@ fn corner_points(ctx: &Ctx, found: &[(DVec3, DVec3, DVec3)], gap: f64, cos_max: 
                                 continue;
                             }
                             let Some(p) = ctx.project(x)? else { continue };
-                            if p.distance(x) <= CREASE_TOL * gap * h {
+                            if p.distance(x) <= sharp::TOL * gap * h {
                                 corners.push(p);
                             }
                         }
