@@ -153,11 +153,11 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
         .collect();
     // Dropping outside triangles can pinch the boundary at a vertex: keep its largest fan.
     for _ in 0..64 {
-        let pinched = super::local2d::pinched_vertices(p.len(), &tris);
+        let pinched = super::planar::pinched_vertices(p.len(), &tris);
         if pinched.is_empty() {
             break;
         }
-        tris = super::local2d::drop_small_fans(&tris, &pinched, p.len());
+        tris = super::planar::drop_small_fans(&tris, &pinched, p.len());
     }
     let mut map = vec![usize::MAX; p.len()];
     let mut pts = Vec::new();

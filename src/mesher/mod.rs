@@ -2,24 +2,20 @@
 
 pub mod background;
 mod classic2d;
-mod corners2d;
 pub mod image;
 mod input;
 mod internal;
-mod local2d;
 mod local3d;
 pub mod metric;
-mod options;
 mod options3;
-mod polish2d;
-mod report;
+mod planar;
 mod report3;
 mod sharp;
 
 pub use metric::{Metric2, Metric3, MetricFn2, MetricGrid2, MetricStats};
-pub use options::{Options2, ProgressFn, SizeFn2, Strategy};
 pub use options3::{Options3, SizeFn3};
-pub use report::{area, boundary_deviation, size_deviation, QualityStats, Report};
+pub use planar::options::{Options2, ProgressFn, SizeFn2, Strategy};
+pub use planar::report::{area, boundary_deviation, size_deviation, QualityStats, Report};
 pub use report3::{boundary_deviation_3d, circumradius, size_deviation_3d, QualityStats3, Report3};
 
 use crate::geometry::{Implicit2, Implicit3};
@@ -67,7 +63,7 @@ pub fn mesh_3d(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, c
 /// ```
 pub fn mesh_2d(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, crate::Error> {
     match opts.strategy {
-        Strategy::Local => local2d::run(domain, opts),
+        Strategy::Local => planar::run(domain, opts),
         Strategy::GlobalDelaunay if opts.internal.is_some() || opts.metric.is_some() => Err(crate::Error::Invalid(
             "internal boundaries and metrics need the local strategy (the classic global-Delaunay baseline has neither)"
                 .into(),
@@ -84,7 +80,7 @@ pub fn mesh_2d(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, c
 ///
 /// An invalid start (an inverted or broken element) is an `Error::InvalidMesh`.
 pub fn remesh_2d(prev: &TriMesh<DVec2>, domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, crate::Error> {
-    local2d::run_from(domain, opts, Some(prev))
+    planar::run_from(domain, opts, Some(prev))
 }
 
 /// Remeshing for adaptation (seed section 5.2): the old mesh is the background for d (its
@@ -133,7 +129,7 @@ pub fn remesh_adapt_2d(
         .with_size(move |p| size.at(p))
         .with_fixed(corners)
         .with_max_iter(max_iter);
-    local2d::run_moving(&domain, &opts, Some(old), None, true)
+    planar::run_moving(&domain, &opts, Some(old), None, true)
 }
 
 /// One step of a moving mesh with freezing: as [`remesh_2d`], but nodes more than
@@ -150,5 +146,5 @@ pub fn move_mesh_2d(
     opts: &Options2,
     freeze_rings: usize,
 ) -> Result<MeshOutput2, crate::Error> {
-    local2d::run_moving(new_domain, opts, Some(prev), Some(local2d::Freeze { old_domain, rings: freeze_rings }), false)
+    planar::run_moving(new_domain, opts, Some(prev), Some(planar::Freeze { old_domain, rings: freeze_rings }), false)
 }

@@ -1,8 +1,8 @@
 //! Options of the 2-D mesher, with their defaults.
 
-use super::metric::{Metric2, MetricFn2};
 use crate::geometry::project::Projection;
 use crate::geometry::Implicit2;
+use crate::mesher::metric::{Metric2, MetricFn2};
 use glam::DVec2;
 use std::sync::Arc;
 

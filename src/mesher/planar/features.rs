@@ -10,10 +10,10 @@
 //! to one per SPACING target lengths, the first in grid order kept, and each kept one is moved
 //! to where the tangent lines taken ever closer to it meet ([`refine`]: curved sides).
 
-use super::input::{eval_d, eval_h_floor};
-use super::sharp::{PROBE, REACH, REFINE_STEPS, SHARP_DEG, SPACING, TOL};
 use super::Options2;
 use crate::geometry::Implicit2;
+use crate::mesher::input::{eval_d, eval_h_floor};
+use crate::mesher::sharp::{PROBE, REACH, REFINE_STEPS, SHARP_DEG, SPACING, TOL};
 use crate::Error;
 use glam::DVec2;
 use std::collections::HashMap;

@@ -78,7 +78,7 @@ pub struct Report {
     /// Quality of the result.
     pub quality: QualityStats,
     /// With a metric: metric edge lengths and metric quality of the result.
-    pub metric: Option<super::metric::MetricStats>,
+    pub metric: Option<crate::mesher::metric::MetricStats>,
 }
 
 impl std::fmt::Display for Report {

@@ -1,0 +1,246 @@
+use super::*;
+
+/// Tags `Fixed` every non-fixed node farther than `rings` edges from the nodes where the old
+/// and new distance functions differ; returns them so that their tags can be restored.
+pub(super) fn freeze_far_nodes(ctx: &Ctx, m: &mut TriMesh<DVec2>, fz: &Freeze) -> Result<Vec<VertexId>, Error> {
+    let mut ring: SecondaryMap<VertexId, usize> = SecondaryMap::new();
+    let mut front: Vec<VertexId> = Vec::new();
+    for v in m.vertex_ids() {
+        let p = m.pos(v);
+        let (dn, dold) = (ctx.d(p)?, fz.old_domain.value(p));
+        let off_boundary = m.is_boundary_vertex(v) && dn.abs() > ctx.geps;
+        // Only where the boundary itself moved: near the old or the new zero set.
+        let near = dn.abs().min(dold.abs()) < 1.5 * ctx.opts.h0 * ctx.h(p)?;
+        if ((dn - dold).abs() > 1e-12 * (1.0 + dn.abs()) && near) || off_boundary {
+            ring.insert(v, 0);
+            front.push(v);
+        }
+    }
+    for k in 1..=fz.rings {
+        let mut next = Vec::new();
+        for &v in &front {
+            for w in m.neighbours(v) {
+                if !ring.contains_key(w) {
+                    ring.insert(w, k);
+                    next.push(w);
+                }
+            }
+        }
+        front = next;
+    }
+    let frozen: Vec<VertexId> =
+        m.vertex_ids().filter(|&v| !ring.contains_key(v) && m.tag(v) != VertexTag::Fixed).collect();
+    for &v in &frozen {
+        m.set_tag(v, VertexTag::Fixed);
+    }
+    Ok(frozen)
+}
+
+/// The half-edges from each vertex and the link edges opposite it: the edges whose Delaunay
+/// test a change at the vertex can alter.
+pub(super) fn star_edges(m: &TriMesh<DVec2>, vertices: &[VertexId]) -> Vec<HalfEdgeId> {
+    let mut out = Vec::with_capacity(12 * vertices.len());
+    for &v in vertices {
+        for h in m.outgoing(v) {
+            out.push(h);
+            if m.face_of(h).is_some() {
+                out.push(m.next(h));
+            }
+        }
+    }
+    out
+}
+
+/// Boundary nodes pushed inside become interior (a boundary ear is filled over them); interior
+/// nodes pushed outside become boundary nodes (the boundary triangle below them is removed).
+pub(super) fn change_membership(
+    ctx: &mut Ctx,
+    m: &mut TriMesh<DVec2>,
+    snap: &Snapshot,
+    leaving: &[(usize, DVec2)],
+    joining: &[usize],
+) -> Result<bool, Error> {
+    let mut changed = false;
+    for &(i, inner) in leaving {
+        let b = snap.ids[i];
+        if !m.contains_vertex(b) || m.tag(b) != VertexTag::Boundary || !m.is_boundary_vertex(b) {
+            continue;
+        }
+        // An ear over a vertex whose neighbours are a single triangle would close the mesh.
+        if m.num_faces() < 3 {
+            continue;
+        }
+        let g = m.vertex(b).out; // b -> c on the boundary
+        let e = m.prev(g); // a -> b
+        let (a, c) = (m.origin(e), m.dest(g));
+        if m.tag(a) == VertexTag::Interior || m.tag(c) == VertexTag::Interior {
+            continue;
+        }
+        // The ear must lie inside the domain (the seed drops triangles with an outside
+        // centroid): over a concave part of the boundary it would cover a hole.
+        let (pa, pc) = (m.pos(a), m.pos(c));
+        if ctx.approx_dist((pa + inner + pc) / 3.0)? > -ctx.geps || ctx.approx_dist((pa + pc) * 0.5)? > -ctx.geps {
+            continue;
+        }
+        // Not while the ear would be a sliver: the node has barely crossed the chord.
+        if ctx.tri_q([pa, inner, pc]) < EAR_Q {
+            continue;
+        }
+        let old = m.pos(b);
+        if m.relocate(b, inner).is_err() {
+            continue;
+        }
+        if m.fill_boundary_ear(e, m.face(m.face_of(m.twin(e)).expect("boundary edge has a face")).label).is_ok() {
+            m.set_tag(b, VertexTag::Interior);
+            ctx.left += 1;
+            changed = true;
+        } else {
+            m.set_pos_unchecked(b, old);
+        }
+    }
+    for &i in joining {
+        let v = snap.ids[i];
+        if !m.contains_vertex(v) || m.tag(v) != VertexTag::Interior || m.is_boundary_vertex(v) {
+            continue;
+        }
+        // The worst triangle with v as apex over a boundary edge.
+        let mut best: Option<(f64, HalfEdgeId)> = None;
+        for x in m.outgoing(v) {
+            if let Some(f) = m.face_of(x) {
+                let opp = m.twin(m.next(x));
+                if m.face_of(opp).is_none() {
+                    let q = ctx.tri_q(m.face_points(f));
+                    if best.is_none_or(|(bq, _)| q < bq) {
+                        best = Some((q, opp));
+                    }
+                }
+            }
+        }
+        if let Some((_, t)) = best {
+            if m.remove_boundary_triangle(t).is_ok() {
+                m.set_tag(v, VertexTag::Boundary);
+                ctx.joined += 1;
+                if let Some(q) = ctx.project(m.pos(v))? {
+                    let _ = m.relocate(v, q);
+                }
+                changed = true;
+            }
+        }
+    }
+    Ok(changed)
+}
+
+/// Interior nodes that the forces push across an internal boundary join it (seed 3.4: "if a
+/// new node tries to cross the boundary it is added to the list of boundary nodes"): the
+/// worst triangle with the node as apex over an internal-boundary edge changes sides, so the
+/// curve runs through the node, which is then projected onto d_I = 0.
+pub(super) fn join_internal(
+    ctx: &mut Ctx,
+    m: &mut TriMesh<DVec2>,
+    snap: &Snapshot,
+    joining: &[usize],
+) -> Result<bool, Error> {
+    let mut changed = false;
+    for &i in joining {
+        let v = snap.ids[i];
+        if !m.contains_vertex(v) || m.tag(v) != VertexTag::Interior || m.is_boundary_vertex(v) {
+            continue;
+        }
+        let mut best: Option<(f64, crate::topology::FaceId, u32)> = None;
+        for x in m.outgoing(v) {
+            let Some(f) = m.face_of(x) else { continue };
+            let opp = m.twin(m.next(x));
+            if let Some(g) = m.face_of(opp) {
+                if m.face(g).label != m.face(f).label {
+                    let q = ctx.tri_q(m.face_points(f));
+                    if best.is_none_or(|(bq, _, _)| q < bq) {
+                        best = Some((q, f, m.face(g).label));
+                    }
+                }
+            }
+        }
+        let Some((_, f, label)) = best else { continue };
+        // The node joins between the two ends of that edge: its projection must land between
+        // them and near the edge (near a corner of the curve it could land on another side).
+        let Some(q) = ctx.project_internal(m.pos(v))? else { continue };
+        let [x, y] = m
+            .face_half_edges(f)
+            .iter()
+            .find(|&&h| m.origin(h) != v && m.dest(h) != v)
+            .map_or([DVec2::NAN; 2], |&h| [m.pos(m.origin(h)), m.pos(m.dest(h))]);
+        let between = (q - x).dot(y - x) > 0.0 && (q - y).dot(x - y) > 0.0;
+        let off = (y - x).perp_dot(q - x).abs() / x.distance(y);
+        if !between || off > 0.3 * x.distance(y) {
+            continue;
+        }
+        m.set_label(f, label);
+        m.set_tag(v, VertexTag::InternalBoundary { curve: 0 });
+        ctx.joined += 1;
+        let _ = m.relocate(v, q);
+        changed = true;
+    }
+    Ok(changed)
+}
+
+/// Boundary nodes that the guarded projection could not bring onto d = 0 (a notch the forces
+/// never closed) are projected one by one, or else merged into a boundary neighbour.
+pub(super) fn settle_boundary(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
+    let tol = ctx.geps;
+    for _ in 0..3 {
+        let off: Vec<VertexId> = m
+            .vertex_ids()
+            .filter(|&v| m.tag(v) == VertexTag::Boundary && m.is_boundary_vertex(v))
+            .filter(|&v| ctx.approx_dist(m.pos(v)).map(|d| d.abs() > tol).unwrap_or(true))
+            .collect();
+        if off.is_empty() {
+            return Ok(());
+        }
+        for v in off {
+            if !m.contains_vertex(v) {
+                continue;
+            }
+            if let Some(q) = ctx.project(m.pos(v))? {
+                if m.relocate(v, q).is_ok() {
+                    continue;
+                }
+            }
+            let g = m.vertex(v).out;
+            let e = m.prev(g);
+            let targets = [(g, m.dest(g)), (m.twin(e), m.origin(e))];
+            for (h, w) in targets {
+                if m.collapse(h, m.pos(w)).is_ok() {
+                    ctx.report.collapses += 1;
+                    break;
+                }
+            }
+        }
+        ctx.report.flips += ctx.make_delaunay(m);
+    }
+    // What could not be settled is reported, not hidden.
+    ctx.report.boundary_nodes_off = m
+        .vertex_ids()
+        .filter(|&v| m.tag(v) == VertexTag::Boundary && m.is_boundary_vertex(v))
+        .filter(|&v| ctx.approx_dist(m.pos(v)).map(|d| d.abs() > tol).unwrap_or(true))
+        .count();
+    Ok(())
+}
+
+/// Projects every boundary node (used once at the start).
+pub(super) fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &TriMesh<DVec2>) -> Result<(), Error> {
+    let old = p.to_vec();
+    let mut newp = p.to_vec();
+    for i in 0..p.len() {
+        let q = match snap.kind[i] {
+            BOUNDARY => ctx.project(p[i])?,
+            INTERNAL => ctx.project_internal(p[i])?,
+            _ => None,
+        };
+        if let Some(q) = q {
+            newp[i] = q;
+        }
+    }
+    guard_inversions(snap, &old, &mut newp, None);
+    p.copy_from_slice(&newp);
+    let _ = m;
+    Ok(())
+}

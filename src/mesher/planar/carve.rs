@@ -1,0 +1,278 @@
+use super::*;
+
+/// Keeps the triangles whose centroid is inside (d < -geps), repairs pinched vertices, and
+/// tags the boundary.
+/// Takes the mesh by value: it is dropped before the carved one is built (peak memory).
+pub(super) fn carve(ctx: &Ctx, m: TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<DVec2>, Error> {
+    let (points, tris, labels, keys) = m.to_arrays();
+    let on_boundary: Vec<bool> = keys.iter().map(|&k| boundary_slack > 0.0 && m.is_boundary_vertex(k)).collect();
+    let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
+    drop(m);
+    carve_arrays(ctx, Cells { points, tris, labels, fixed, on_boundary }, boundary_slack)
+}
+
+/// A triangle list with what carving needs to know of its vertices.
+pub(super) struct Cells {
+    pub(super) points: Vec<DVec2>,
+    pub(super) tris: Vec<[usize; 3]>,
+    pub(super) labels: Vec<u32>,
+    pub(super) fixed: Vec<bool>,
+    pub(super) on_boundary: Vec<bool>,
+}
+
+/// [`carve`] on arrays.
+pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Result<TriMesh<DVec2>, Error> {
+    let Cells { points, tris, labels, fixed, on_boundary } = cells;
+    // As the seed keeps only grid points with d < geps, keep the triangles whose three
+    // vertices are inside; the pressure then pushes the outer row onto the boundary. Boundary
+    // vertices of a previous mesh count as inside up to `boundary_slack` relative sizes
+    // outside: they are projected onto the moved boundary instead of dropped with their row.
+    let inside: Vec<bool> = points
+        .par_iter()
+        .zip(&on_boundary)
+        .with_min_len(CHUNK)
+        .map(|(p, &b)| {
+            let slack = if b { boundary_slack * ctx.opts.h0 * ctx.h(*p)? } else { 0.0 };
+            Ok(ctx.d(*p)? < ctx.geps + slack)
+        })
+        .collect::<Result<Vec<bool>, Error>>()?;
+    let mut keep: Vec<[usize; 3]> = Vec::with_capacity(tris.len());
+    // Labels are looked up again after the clean-up below; with one subdomain (the usual
+    // case) there is nothing to look up.
+    let one_label = labels.iter().all(|&l| Some(&l) == labels.first());
+    let mut keep_label: crate::FastMap<[usize; 3], u32> = crate::FastMap::default();
+    for (t, &label) in tris.iter().zip(&labels) {
+        // Around fixed points (often corners on d = 0) the centroid decides, so they stay.
+        let touches_fixed = t.iter().any(|&i| fixed[i]);
+        let c = (points[t[0]] + points[t[1]] + points[t[2]]) / 3.0;
+        if t.iter().all(|&i| inside[i]) || (touches_fixed && ctx.d(c)? < -ctx.geps) {
+            keep.push(*t);
+            if !one_label {
+                keep_label.insert(*t, label);
+            }
+        }
+    }
+    keep = drop_islands(&keep, &inside);
+    // Pinched vertices (two fans) would break the manifold structure: drop the triangles of
+    // every fan but the largest, and repeat until none is left.
+    for _ in 0..64 {
+        let pinched = pinched_vertices(points.len(), &keep);
+        if pinched.is_empty() {
+            break;
+        }
+        keep = drop_small_fans(&keep, &pinched, points.len());
+    }
+    if keep.is_empty() {
+        return Err(Error::EmptyDomain(
+            "no triangle of the initial mesh has its centroid inside the domain: h0 is too large for it".into(),
+        ));
+    }
+    // Compact and build.
+    let mut map = vec![usize::MAX; points.len()];
+    let mut pts = Vec::new();
+    let mut is_fixed = Vec::new();
+    for t in &keep {
+        for &i in t {
+            if map[i] == usize::MAX {
+                map[i] = pts.len();
+                pts.push(points[i]);
+                is_fixed.push(fixed[i]);
+            }
+        }
+    }
+    // Large meshes: vertices along a Hilbert curve and faces by their first vertex there, so
+    // that neighbours sit near each other in the arenas and in the force loop's arrays (the
+    // refinement leaves each level's vertices in one block, and every sweep would wait on cache
+    // misses). Small ones fit in cache and keep the refinement's order.
+    let relayout = pts.len() > RELAYOUT_ABOVE;
+    let order: Vec<usize> = if relayout { crate::topology::hilbert_order(&pts) } else { (0..pts.len()).collect() };
+    let mut rank = vec![0usize; pts.len()];
+    for (r, &i) in order.iter().enumerate() {
+        rank[i] = r;
+    }
+    let pts: Vec<DVec2> = order.iter().map(|&i| pts[i]).collect();
+    let is_fixed: Vec<bool> = order.iter().map(|&i| is_fixed[i]).collect();
+    let label_of = |t: &[usize; 3]| if one_label { labels[0] } else { keep_label[t] };
+    let mut tri: Vec<([usize; 3], u32)> =
+        keep.iter().map(|t| ([rank[map[t[0]]], rank[map[t[1]]], rank[map[t[2]]]], label_of(t))).collect();
+    if relayout {
+        // Each triangle from its first vertex on (orientation kept), then by that vertex: the
+        // arena order then follows from the triangles alone, however they were produced.
+        for (t, _) in tri.iter_mut() {
+            let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+            t.rotate_left(k);
+        }
+        tri.sort_unstable_by_key(|(t, _)| *t);
+    }
+    let (labels, tri): (Vec<u32>, Vec<[usize; 3]>) = tri.into_iter().map(|(t, l)| (l, t)).unzip();
+    let (mut out, ids) =
+        TriMesh::from_arrays(&pts, &tri).map_err(|e| Error::Internal(format!("carving the initial mesh: {e}")))?;
+    // from_arrays creates the faces in triangle order: labels (subdomains) carry over.
+    let faces: Vec<crate::topology::FaceId> = out.face_ids().collect();
+    for (f, l) in faces.into_iter().zip(labels) {
+        out.set_label(f, l);
+    }
+    for (i, &v) in ids.iter().enumerate() {
+        let tag = if is_fixed[i] {
+            VertexTag::Fixed
+        } else if out.is_boundary_vertex(v) {
+            VertexTag::Boundary
+        } else {
+            VertexTag::Interior
+        };
+        out.set_tag(v, tag);
+    }
+    internal::tag_interface(&mut out);
+    restore_fixed(ctx, &mut out)?;
+    Ok(out)
+}
+
+/// Fixed points whose triangles were all carved away go back in: inside the mesh by insertion,
+/// outside it by moving the nearest boundary vertex onto them.
+pub(super) fn restore_fixed(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
+    use crate::topology::Location;
+    for &p in &ctx.opts.fixed {
+        if m.vertices().any(|(_, v)| v.tag == VertexTag::Fixed && v.pos == p) {
+            continue;
+        }
+        let start = m.face_ids().next().expect("the carved mesh has faces");
+        let v = match m.locate(p, start) {
+            Location::Vertex(v) => Some(v),
+            Location::Face(f) => m.insert_in_face(f, p).ok(),
+            Location::Edge(h) => m.split_edge(h, p).ok(),
+            Location::Outside(_) => {
+                let mut best: Option<(f64, VertexId)> = None;
+                for v in m.vertex_ids() {
+                    if m.is_boundary_vertex(v) && m.tag(v) != VertexTag::Fixed {
+                        let d = m.pos(v).distance(p);
+                        if best.is_none_or(|(bd, _)| d < bd) {
+                            best = Some((d, v));
+                        }
+                    }
+                }
+                best.and_then(|(_, v)| m.relocate(v, p).ok().map(|_| v))
+            }
+        };
+        match v {
+            Some(v) => m.set_tag(v, VertexTag::Fixed),
+            None => {
+                return Err(Error::Invalid(format!(
+                    "fixed point ({}, {}) could not be placed in the mesh: it is too close to another node or outside the domain",
+                    p.x, p.y
+                )))
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Drops the pieces (edge-connected) of a carved triangle list that have no triangle with all
+/// three vertices inside: the triangles kept only for a fixed point at a corner can form an
+/// island apart from the mesh, which the boundary rows would later slide over. The fixed
+/// point is then restored onto the mesh by [`restore_fixed`].
+pub(super) fn drop_islands(tris: &[[usize; 3]], inside: &[bool]) -> Vec<[usize; 3]> {
+    // Triangles sharing an edge are joined (union-find; the triangles on an edge a-b are found
+    // among the few around a: no map and no sort, which cost most of the carving on large
+    // starts).
+    let around = Incidence::new(inside.len(), tris);
+    let mut sets = crate::topology::DisjointSets::new(tris.len());
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            for &u in around.of(a) {
+                let u = u as usize;
+                if u > t && tris[u].contains(&b) {
+                    sets.join(t, u);
+                }
+            }
+        }
+    }
+    let mut core = vec![false; tris.len()];
+    for (t, tri) in tris.iter().enumerate() {
+        if tri.iter().all(|&i| inside[i]) {
+            core[sets.root(t)] = true;
+        }
+    }
+    let mut out = Vec::with_capacity(tris.len());
+    for (t, tri) in tris.iter().enumerate() {
+        if core[sets.root(t)] {
+            out.push(*tri);
+        }
+    }
+    out
+}
+
+/// Vertices with more than one boundary edge leaving them in a triangle list.
+pub(crate) fn pinched_vertices(n: usize, tris: &[[usize; 3]]) -> Vec<usize> {
+    let around = Incidence::new(n, tris);
+    // Whether some triangle holds the directed edge a -> b (it is then among a's triangles).
+    let has = |a: usize, b: usize| {
+        around.of(a).iter().any(|&u| (0..3).any(|k| tris[u as usize][k] == a && tris[u as usize][(k + 1) % 3] == b))
+    };
+    let mut count = vec![0u8; n];
+    for t in tris {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if !has(b, a) {
+                // b -> a is a boundary half-edge leaving b.
+                count[b] = count[b].saturating_add(1);
+            }
+        }
+    }
+    (0..n).filter(|&i| count[i] > 1).collect()
+}
+
+/// For each pinched vertex keeps only its largest fan of triangles.
+pub(crate) fn drop_small_fans(tris: &[[usize; 3]], pinched: &[usize], n: usize) -> Vec<[usize; 3]> {
+    let mut is_pinched = vec![false; n];
+    for &v in pinched {
+        is_pinched[v] = true;
+    }
+    let mut drop = vec![false; tris.len()];
+    let mut around: std::collections::HashMap<usize, Vec<usize>> = std::collections::HashMap::new();
+    for (i, t) in tris.iter().enumerate() {
+        for &v in t {
+            if is_pinched[v] {
+                around.entry(v).or_default().push(i);
+            }
+        }
+    }
+    let mut vs: Vec<usize> = around.keys().copied().collect();
+    vs.sort_unstable();
+    for v in vs {
+        let fs = &around[&v];
+        // Union the triangles around v that share an edge at v.
+        let mut comp: Vec<usize> = (0..fs.len()).collect();
+        fn find(c: &mut [usize], i: usize) -> usize {
+            let mut r = i;
+            while c[r] != r {
+                r = c[r];
+            }
+            c[i] = r;
+            r
+        }
+        for i in 0..fs.len() {
+            for j in i + 1..fs.len() {
+                let (a, b) = (tris[fs[i]], tris[fs[j]]);
+                let shared = a.iter().filter(|&&x| x != v && b.contains(&x)).count();
+                if shared > 0 {
+                    let (ri, rj) = (find(&mut comp, i), find(&mut comp, j));
+                    comp[ri] = rj;
+                }
+            }
+        }
+        let mut sizes = std::collections::BTreeMap::new();
+        for i in 0..fs.len() {
+            *sizes.entry(find(&mut comp, i)).or_insert(0usize) += 1;
+        }
+        let best = sizes.iter().max_by_key(|(r, s)| (**s, std::cmp::Reverse(**r))).map(|(r, _)| *r).unwrap_or(0);
+        for i in 0..fs.len() {
+            if find(&mut comp, i) != best {
+                drop[fs[i]] = true;
+            }
+        }
+    }
+    tris.iter().zip(drop).filter(|(_, d)| !d).map(|(t, _)| *t).collect()
+}
+
+// ============================ force equilibrium ============================

@@ -1,0 +1,500 @@
+use super::*;
+
+/// Nodes moved farther than this many local sizes since their last check get their edges
+/// re-checked for the Delaunay property (the seed's ttol, applied per node).
+pub(super) const TTOL: f64 = 0.1;
+/// Density control runs every this many iterations (a window).
+pub(super) const DENSITY_EVERY: usize = 10;
+/// The window of large meshes (over RELAYOUT_ABOVE vertices): a window ends in one topology
+/// update (density control and flips, then one snapshot rebuild) and starts with a full sweep,
+/// and at 10^6 triangles these cost more than the partial steps between them. Measured on
+/// the unit disk from 5x10^4 to 10^6 triangles: the same quality as windows of 10 (q min 0.79
+/// to 0.89 either way, q mean within 1e-4) in 0.75 to 0.9 of the time.
+pub(super) const LARGE_WINDOW: usize = 20;
+/// Between full sweeps, a node that moved less than this many local sizes in a step, with
+/// neighbours that did too, is settled and skipped (a tenth of the default dptol).
+pub(super) const SETTLE: f64 = 5e-4;
+/// The run stops on a quality plateau: the mean quality, sampled at the end of every window,
+/// gained less than this over PLATEAU_WINDOWS samples in a row.
+pub(super) const QUALITY_PLATEAU: f64 = 1e-6;
+pub(super) const PLATEAU_WINDOWS: usize = 30;
+/// With a metric, density control splits above and collapses below these metric lengths.
+/// (Measured on figure 3-6: wider bands leave the truss too coarse inside and too crowded in
+/// the layer; (1.45, 0.65) gives 96% of edges in [0.707, 1.414].)
+pub(super) const METRIC_BAND: (f64, f64) = (1.45, 0.65);
+/// Starting from a previous mesh (moving meshes, remeshing), density control splits above and
+/// collapses below these target lengths: areas change, and the wide band of a fresh start
+/// would let a growing region coarsen to twice its size.
+pub(super) const MOVING_BAND: (f64, f64) = (1.5, 0.6);
+/// The same for a moving-mesh step with freezing. The held far field passes neither pressure
+/// nor tension on: the nodes the boundary pushes ahead of it stay squeezed in the thin active
+/// region, and those it leaves behind stretched, until density control acts. With the wide
+/// band they were collapsed only at 0.6 target lengths, and the distorted triangles were left
+/// behind in the frozen wake (figure 5-2 with one ring: q mean 0.9445). Collapsing from 0.82
+/// keeps the node count steady and the worst q mean at 0.965 (of 33 pairs measured between
+/// (1.3, 0.72) and (1.6, 0.9), 30 met q min 0.5 and q mean 0.95; collapsing from 0.6 or 0.7
+/// let the wake drift below q mean 0.95 again).
+pub(super) const FREEZING_BAND: (f64, f64) = (1.5, 0.82);
+pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
+    let opts = ctx.opts;
+    let h0 = opts.h0;
+    let mut snap = Snapshot::build(m);
+    let mut p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
+    // Positions at the last connectivity check (the seed's pold).
+    let mut pold: Vec<DVec2> = p.clone();
+    let metric = ctx.metric;
+    let uniform = opts.size.is_none() && metric.is_none();
+    let mut hv: Vec<f64> = vec![1.0; p.len()];
+    // With a metric: M at each vertex, and the mean metric edge length (sqrt of the mean
+    // square) for the boundary spacing rule.
+    let mut mv: Vec<Metric2> = Vec::new();
+    let mut munit = 1.0;
+    let mut slots: Vec<u32> = Vec::new();
+    let mut last_q = 0.0;
+    let mut stall = 0;
+    let mut rebuilds = 0usize;
+    let mut converged = false;
+    let mut iter = 0;
+    let mut unit = h0;
+    // The active set: between full sweeps only nodes that moved more than SETTLE local sizes
+    // in the last step, and their neighbours, get forces. A settled region keeps its forces
+    // (nothing in it moved), so skipping it changes nothing but the cost: the lattice interior
+    // of the start is in equilibrium from the first step, and most of the run is spent near
+    // the boundary. Full sweeps: the first step after a topology change, the first step of
+    // every window (the size scale of eq. 2.6 is summed on full sweeps only), and every step
+    // with a metric or from a previous mesh (short runs of a few steps that must undo a distortion
+    // everywhere) or of a small mesh (a sweep costs microseconds there).
+    let large = p.len() > RELAYOUT_ABOVE;
+    let window = if large { LARGE_WINDOW } else { DENSITY_EVERY };
+    let mut newp = p.clone();
+    // Nodes that moved more than SETTLE in the last step.
+    let mut moved: Vec<u32> = Vec::new();
+    let mut need_full = true;
+    let mut scale_sums = (0.0, 0.0);
+    let mut marks = Marks::default();
+    let mut tri_marks = Marks::default();
+    let mut swept = 0usize;
+    let mut build_s = 0.0;
+    let (mut full_s, mut part_s, mut full_n) = (0.0, 0.0, 0usize);
+    if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+        eprintln!("equilibrium entered, peak {}", peak_memory());
+        let mut val = [0usize; 12];
+        for i in 0..p.len() {
+            if snap.kind[i] == INTERIOR {
+                val[((snap.adj_start[i + 1] - snap.adj_start[i]) as usize).min(11)] += 1;
+            }
+        }
+        eprintln!(
+            "start: q mean {:.5}, {} vertices ({} fixed), interior valences {:?}, peak {}",
+            mean_quality(ctx, &snap, &p),
+            p.len(),
+            snap.kind.iter().filter(|&&k| k == FIXED).count(),
+            val,
+            peak_memory()
+        );
+    }
+    while iter < opts.max_iter {
+        iter += 1;
+        if let Some(cb) = &opts.progress {
+            cb(iter, opts.max_iter);
+        }
+        let ti = Instant::now();
+        let full = need_full || !large || metric.is_some() || ctx.from_previous || iter % window == 1;
+        need_full = false;
+        let active: Vec<u32> =
+            if full { (0..p.len() as u32).collect() } else { snap.with_neighbours(&moved, &mut marks) };
+        swept += active.len();
+        if metric.is_some() {
+            mv = p.par_iter().map(|&x| ctx.metric_at(x)).collect::<Result<Vec<Metric2>, Error>>()?;
+            hv = mv.par_iter().map(|m| m.smallest_size() / h0).collect();
+        } else if !uniform {
+            let hs = active.par_iter().map(|&i| ctx.h(p[i as usize])).collect::<Result<Vec<f64>, Error>>()?;
+            for (&i, h) in active.iter().zip(hs) {
+                hv[i as usize] = h;
+            }
+        }
+        // With a metric: every edge's metric length, integrated along it (Simpson's rule
+        // with M at the endpoints and the midpoint), indexed by adjacency slot.
+        let el: Vec<f64> = if metric.is_some() {
+            if slots.len() != snap.adj.len() {
+                slots = adjacency_edges(&snap);
+            }
+            let lens = snap
+                .edges
+                .par_iter()
+                .with_min_len(CHUNK)
+                .map(|&(a, b, _, _)| {
+                    let (a, b) = (a as usize, b as usize);
+                    let mm = ctx.metric_at((p[a] + p[b]) * 0.5)?;
+                    Ok(metric::simpson_length(&mv[a], &mm, &mv[b], p[b] - p[a]))
+                })
+                .collect::<Result<Vec<f64>, Error>>()?;
+            slots.iter().map(|&e| lens[e as usize]).collect()
+        } else {
+            Vec::new()
+        };
+        // Seed eq. 2.6: L0 = h_bar Fscale sqrt(sum L^2 / sum h_bar^2); with a metric every
+        // desired length is one, so L0 = Fscale sqrt(mean of the squared metric lengths).
+        let node_sums = |i: usize| {
+            if metric.is_some() {
+                let mut s = (0.0, 0.0);
+                for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                    let l = el[k as usize];
+                    s.0 += l * l;
+                    s.1 += 1.0;
+                }
+                return s;
+            }
+            let mut s = (0.0, 0.0);
+            for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                let j = snap.adj[k as usize] as usize;
+                let hb = 0.5 * (hv[i] + hv[j]);
+                s.0 += p[i].distance_squared(p[j]);
+                s.1 += hb * hb;
+            }
+            s
+        };
+        // Summed on full sweeps only and kept in between: the premise of the active set is that
+        // a settled node's forces stand, and they would not if the scale moved under them.
+        // (Partial steps run only on large meshes, whose scale sums hundreds of thousands of
+        // bars, most of them settled.)
+        if full {
+            scale_sums = det_sum(p.len(), node_sums);
+        }
+        let (sl, sh) = scale_sums;
+        let scale = opts.fscale * (sl / sh).sqrt();
+        // With a metric: the boundary pushes back on interior nodes through a bar to their
+        // mirror image across d = 0, of rest length twice an equilateral height (sqrt 3 L0):
+        // a boundary chord alone barely resists a node approaching it along the normal, and
+        // in a boundary layer the chord's sagitta is a large part of the first row's height.
+        let wall: Vec<DVec2> = if metric.is_some() {
+            (0..p.len())
+                .into_par_iter()
+                .with_min_len(CHUNK)
+                .map(|i| {
+                    if snap.kind[i] != INTERIOR {
+                        return Ok(DVec2::ZERO);
+                    }
+                    let d = ctx.approx_dist(p[i])?;
+                    let g = ctx.domain.gradient(p[i]);
+                    let n = g.normalize_or_zero();
+                    if d >= 0.0 || n == DVec2::ZERO {
+                        return Ok(DVec2::ZERO);
+                    }
+                    let v = n * (2.0 * d); // from the mirror image to p (inward)
+                    let l = mv[i].length(v);
+                    let rest = 3f64.sqrt() * scale;
+                    Ok(if l > 0.0 && l < rest { v * ((rest - l) / l) } else { DVec2::ZERO })
+                })
+                .collect::<Result<Vec<DVec2>, Error>>()?
+        } else {
+            Vec::new()
+        };
+        // Forces gathered per vertex (deterministic in parallel), forward Euler step.
+        let dt = opts.deltat;
+        let stepped: Vec<DVec2> = active
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|&i| {
+                let i = i as usize;
+                if snap.kind[i] == FIXED {
+                    return p[i];
+                }
+                let mut f = DVec2::ZERO;
+                if metric.is_some() {
+                    for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                        let j = snap.adj[k as usize] as usize;
+                        let d = p[i] - p[j];
+                        let l = el[k as usize];
+                        if l > 0.0 && scale > l {
+                            f += d * ((scale - l) / l);
+                        }
+                    }
+                    return p[i] + dt * (f + wall[i]);
+                }
+                for k in snap.adj_start[i]..snap.adj_start[i + 1] {
+                    let j = snap.adj[k as usize] as usize;
+                    let d = p[i] - p[j];
+                    let l = d.length();
+                    let l0 = 0.5 * (hv[i] + hv[j]) * scale;
+                    if l > 0.0 && l0 > l {
+                        f += d * ((l0 - l) / l);
+                    }
+                }
+                p[i] + dt * f
+            })
+            .collect();
+        for (&i, q) in active.iter().zip(stepped) {
+            newp[i as usize] = q;
+        }
+        // Interior movement before projection: the seed's stop criterion.
+        let step = |i: usize, q: &[DVec2]| {
+            if metric.is_some() {
+                mv[i].length(q[i] - p[i])
+            } else {
+                q[i].distance(p[i]) / (h0 * hv[i])
+            }
+        };
+        let interior_move = active
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|&i| i as usize)
+            .filter(|&i| snap.kind[i] == INTERIOR)
+            .map(|i| step(i, &newp))
+            .reduce(|| 0.0, f64::max);
+        // Boundary membership follows the forces, as the seed's retriangulation lets it: a
+        // boundary node whose raw step ends inside the chord of its boundary neighbours leaves
+        // the boundary; an interior node whose raw step crosses the boundary edge below it joins.
+        let mut leaving: Vec<(usize, DVec2)> = Vec::new();
+        for &i in &active {
+            let i = i as usize;
+            if snap.kind[i] == BOUNDARY && snap.loop_nbrs[i].0 != u32::MAX {
+                let (a, c) = snap.loop_nbrs[i];
+                if orient2d(p[a as usize], newp[i], p[c as usize]) == Sign::Positive {
+                    leaving.push((i, newp[i]));
+                }
+            }
+        }
+        // Topology follows in index order, whatever the order of the active list.
+        leaving.sort_unstable_by_key(|l| l.0);
+        let mut joining: Vec<usize> = snap
+            .apexes
+            .iter()
+            .filter(|&&(v, a, b)| {
+                // Not with a metric: the mirror bar keeps nodes off the boundary there, and
+                // nodes joining a chord deep inside a thin layer only get collapsed again.
+                if metric.is_some() {
+                    return false;
+                }
+                let (pa, pb, pv) = (p[a as usize], p[b as usize], newp[v as usize]);
+                // Crossing the boundary edge; when starting from a previous mesh, also squashed
+                // flat onto it (the carried boundary rows leave such slivers behind).
+                orient2d(pa, pb, pv) != Sign::Positive || (ctx.from_previous && ctx.tri_q([pa, pb, pv]) < EAR_Q)
+            })
+            .map(|&(v, _, _)| v as usize)
+            .collect();
+        joining.dedup();
+        // Boundary nodes back onto d = 0; interior nodes must stay inside.
+        let fixes: Vec<(usize, DVec2)> = active
+            .par_iter()
+            .with_min_len(256)
+            .map(|&i| i as usize)
+            .filter_map(|i| match snap.kind[i] {
+                // Boundary nodes inside move freely (the carved start's outer row) and are
+                // projected once outside (seed step 7), as the pressure keeps them there.
+                BOUNDARY => {
+                    let d = match ctx.approx_dist(newp[i]) {
+                        Ok(d) => d,
+                        Err(e) => return Some(Err(e)),
+                    };
+                    // Free inside only where the node could leave the boundary: over a concave
+                    // stretch (the chord of its neighbours outside) it is held on d = 0.
+                    let (a, c) = snap.loop_nbrs[i];
+                    let concave = a != u32::MAX
+                        && match ctx.approx_dist((p[a as usize] + p[c as usize]) * 0.5) {
+                            Ok(dc) => dc > -ctx.geps,
+                            Err(e) => return Some(Err(e)),
+                        };
+                    if d > 0.0 || concave {
+                        match ctx.project(newp[i]) {
+                            Ok(Some(q)) => Some(Ok((i, q))),
+                            Ok(None) => Some(Ok((i, p[i]))),
+                            Err(e) => Some(Err(e)),
+                        }
+                    } else {
+                        None
+                    }
+                }
+                INTERIOR => match ctx.approx_dist(newp[i]) {
+                    Ok(d) if d > -ctx.geps => Some(Ok((i, p[i]))),
+                    Ok(_) => match ctx.crosses_internal(p[i], newp[i]) {
+                        // Held back, marked to join the internal boundary (NaN marker).
+                        Ok(true) => Some(Ok((i, DVec2::NAN))),
+                        Ok(false) => None,
+                        Err(e) => Some(Err(e)),
+                    },
+                    Err(e) => Some(Err(e)),
+                },
+                // Internal-boundary nodes back onto d_I = 0 every step: they slide along it, but
+                // never past a neighbour along it (near a corner of the curve the projection
+                // could jump to the far side of the corner).
+                INTERNAL => match ctx.project_internal(newp[i]) {
+                    Ok(Some(q)) if snap.keeps_curve_order(i, &p, q) => Some(Ok((i, q))),
+                    Ok(Some(_)) => Some(Ok((i, p[i]))),
+                    Ok(None) => Some(Ok((i, p[i]))),
+                    Err(e) => Some(Err(e)),
+                },
+                _ => None,
+            })
+            .collect::<Result<Vec<_>, Error>>()?;
+        let mut joining_internal = Vec::new();
+        for (i, q) in fixes {
+            if q.is_nan() {
+                joining_internal.push(i);
+                newp[i] = p[i];
+            } else {
+                newp[i] = q;
+            }
+        }
+        joining_internal.sort_unstable();
+        // Step control: no triangle may invert; vertices of offending triangles step back.
+        let tris = if full { None } else { Some(snap.triangles_of(&active, &mut tri_marks)) };
+        guard_inversions(&snap, &p, &mut newp, tris.as_deref());
+        // Boundary nodes count too once the step is taken: a node still travelling to d = 0
+        // (a start cut from a previous mesh) is not settled.
+        let boundary_move = active
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|&i| i as usize)
+            .filter(|&i| snap.kind[i] == BOUNDARY || snap.kind[i] == INTERNAL)
+            .map(|i| step(i, &newp))
+            .reduce(|| 0.0, f64::max);
+        let max_move = interior_move.max(boundary_move);
+        moved = active.iter().copied().filter(|&i| step(i as usize, &newp) > SETTLE).collect();
+        for &i in &active {
+            p[i as usize] = newp[i as usize];
+        }
+        // Connectivity: when some node is far from where it was at the last check (the seed's
+        // ttol), every edge gets the exact in-circle test (in parallel) and bad ones flip.
+        // Large meshes look only at the end of a window, with density control: a topology
+        // change costs a snapshot rebuild and a full sweep, and so they come together, once
+        // per window, right before the window's scheduled full sweep. Every node is looked at
+        // then (one that moved far early in the window may have settled since).
+        let mut topo_changed = false;
+        let far_from_last = |i: usize| p[i].distance(pold[i]) > TTOL * h0 * hv[i];
+        let far = if !large {
+            active.par_iter().with_min_len(CHUNK).any(|&i| far_from_last(i as usize))
+        } else {
+            iter % window == 0 && (0..p.len()).into_par_iter().with_min_len(CHUNK).any(far_from_last)
+        };
+        if far {
+            let bad = snap.non_delaunay(&p, &pold, metric.map(|_| &*ctx));
+            pold.copy_from_slice(&p);
+            if !bad.is_empty() {
+                write_back(m, &snap, &p);
+                let flips = ctx.legalize(m, bad);
+                ctx.report.flips += flips;
+                topo_changed |= flips > 0;
+            }
+        }
+        // Boundary membership follows the forces, as in the seed's global retriangulation.
+        if !leaving.is_empty() || !joining.is_empty() {
+            write_back(m, &snap, &p);
+            topo_changed |= change_membership(ctx, m, &snap, &leaving, &joining)?;
+        }
+        if !joining_internal.is_empty() {
+            write_back(m, &snap, &p);
+            topo_changed |= join_internal(ctx, m, &snap, &joining_internal)?;
+        }
+        // Density control and repair of bad triangles.
+        if iter % window == 0 {
+            let mu = metric.map(|_| (sl / sh).sqrt());
+            let band = if metric.is_some() {
+                METRIC_BAND
+            } else if ctx.freezing {
+                FREEZING_BAND
+            } else if ctx.from_previous {
+                MOVING_BAND
+            } else {
+                (SPLIT_ABOVE, COLLAPSE_BELOW)
+            };
+            let cands = density_candidates(ctx, &snap, &p, (sl / sh).sqrt(), mu, band)?;
+            if !cands.is_empty() {
+                write_back(m, &snap, &p);
+                topo_changed |= density_control(ctx, m, cands, !large)?;
+            }
+            unit = (sl / sh).sqrt();
+            munit = unit;
+        }
+        let el_s = ti.elapsed().as_secs_f64();
+        if full {
+            full_s += el_s;
+            full_n += 1;
+        } else {
+            part_s += el_s;
+        }
+        if topo_changed {
+            rebuilds += 1;
+            let tb = Instant::now();
+            // The old arrays go before the new ones come (peak memory).
+            drop(std::mem::take(&mut snap));
+            snap = Snapshot::build(m);
+            build_s += tb.elapsed().as_secs_f64();
+            slots.clear();
+            p = snap.ids.iter().map(|&v| m.pos(v)).collect();
+            pold = p.clone();
+            newp = p.clone();
+            need_full = true;
+            hv = vec![1.0; p.len()];
+            if metric.is_some() {
+                mv = p.par_iter().map(|&x| ctx.metric_at(x)).collect::<Result<Vec<Metric2>, Error>>()?;
+                hv = mv.par_iter().map(|m| m.smallest_size() / h0).collect();
+            } else if !uniform {
+                hv = p.par_iter().map(|&x| ctx.h(x)).collect::<Result<Vec<f64>, Error>>()?;
+            }
+        }
+        // Only a full sweep sees every node's step: a settled node's force may have grown since.
+        if full && max_move < opts.dptol && iter > window {
+            converged = true;
+            ctx.report.stop_reason = format!("nodes moved less than dptol = {} (relative to h)", opts.dptol);
+            break;
+        }
+        if iter % window == 0 {
+            let q = mean_quality(ctx, &snap, &p);
+            if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+                eprintln!(
+                    "iter {iter}: q mean {q:.5}, max move {max_move:.2e}, {} vertices, flips {} splits {} collapses {} left {} joined {}",
+                    p.len(),
+                    ctx.report.flips,
+                    ctx.report.splits,
+                    ctx.report.collapses,
+                    ctx.left,
+                    ctx.joined
+                );
+            }
+            if q - last_q < QUALITY_PLATEAU {
+                stall += 1;
+                if stall >= PLATEAU_WINDOWS {
+                    converged = true;
+                    ctx.report.stop_reason = "mean quality stopped improving".into();
+                    break;
+                }
+            } else {
+                stall = 0;
+            }
+            last_q = last_q.max(q);
+        }
+    }
+    if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+        eprintln!(
+            "{rebuilds} snapshot rebuilds ({build_s:.3} s) in {iter} iterations, {:.1} full sweeps of force work; {full_n} full steps {full_s:.3} s, {} partial {part_s:.3} s (mean active {:.0})",
+            swept as f64 / p.len().max(1) as f64,
+            iter - full_n,
+            swept.saturating_sub(full_n * p.len()) as f64 / (iter - full_n).max(1) as f64
+        );
+    }
+    if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+        eprintln!("loop done, peak {}", peak_memory());
+    }
+    // The loop's working arrays go before the final clean-up allocates (peak memory).
+    drop((pold, newp, hv, moved, mv, slots, marks, tri_marks));
+    // Every boundary node ends on d = 0.
+    project_boundary(ctx, &snap, &mut p, m)?;
+    write_back(m, &snap, &p);
+    // Final cleanup: repair bad triangles, restore Delaunay. The snapshot is current: it is
+    // rebuilt after every topology change, and only positions changed since.
+    let mu = metric.map(|_| munit);
+    let band = if metric.is_some() { METRIC_BAND } else { (SPLIT_ABOVE, COLLAPSE_BELOW) };
+    let cands = density_candidates(ctx, &snap, &p, unit, mu, band)?;
+    // The global pass follows.
+    density_control(ctx, m, cands, false)?;
+    ctx.report.flips += ctx.make_delaunay(m);
+    settle_boundary(ctx, m)?;
+    ctx.report.iterations = iter;
+    ctx.report.converged = converged;
+    if !converged {
+        ctx.report.stop_reason =
+            format!("iteration cap of {} reached; the mesh is the last valid state", opts.max_iter);
+    }
+    Ok(())
+}

@@ -1,0 +1,334 @@
+use super::*;
+
+/// Between two subdomains (an internal boundary).
+pub(super) const EDGE_INTERFACE: u8 = 2;
+
+/// Compact arrays of the mesh for the force loop, rebuilt when the topology changes.
+#[derive(Default)]
+pub(super) struct Snapshot {
+    pub(super) ids: Vec<VertexId>,
+    pub(super) kind: Vec<u8>,
+    pub(super) adj_start: Vec<u32>,
+    pub(super) adj: Vec<u32>,
+    pub(super) tris: Vec<[u32; 3]>,
+    pub(super) tri_faces: Vec<crate::topology::FaceId>,
+    /// The triangles (indices into `tris`) of each vertex.
+    pub(super) vt: Incidence,
+    /// Every edge: endpoints, one half-edge, and its kind (EDGE_*).
+    pub(super) edges: Vec<(u32, u32, HalfEdgeId, u8)>,
+    /// Flippable edges (interior, same label both sides): a, b, and the opposite c, d.
+    pub(super) quads: Vec<[u32; 4]>,
+    pub(super) quad_edges: Vec<HalfEdgeId>,
+    /// Boundary neighbours (previous, next along the loop) of boundary vertices.
+    pub(super) loop_nbrs: Vec<(u32, u32)>,
+    /// Triangles over a boundary edge a -> b with an interior apex v: (v, a, b).
+    pub(super) apexes: Vec<(u32, u32, u32)>,
+    /// Neighbours along internal-boundary edges (up to two per vertex, u32::MAX if none).
+    pub(super) iface_nbrs: Vec<[u32; 2]>,
+}
+
+impl Snapshot {
+    pub(super) fn build(m: &TriMesh<DVec2>) -> Snapshot {
+        let n = m.num_vertices();
+        let mut ids = Vec::with_capacity(n);
+        let mut index = SecondaryMap::with_capacity(n);
+        let mut kind = Vec::with_capacity(n);
+        for (v, vx) in m.vertices() {
+            index.insert(v, ids.len() as u32);
+            ids.push(v);
+            kind.push(match vx.tag {
+                VertexTag::Fixed => FIXED,
+                VertexTag::Boundary => BOUNDARY,
+                VertexTag::InternalBoundary { .. } => INTERNAL,
+                VertexTag::Interior => INTERIOR,
+            });
+        }
+        // Edges in one pass over the half-edges; the adjacency (CSR) is filled from them.
+        let mut edges = Vec::with_capacity(m.num_edges());
+        let mut quads = Vec::with_capacity(m.num_edges());
+        let mut quad_edges = Vec::with_capacity(m.num_edges());
+        let mut deg = vec![0u32; n + 1];
+        // One subdomain (the usual case): no face record needs reading per edge.
+        let first_label = m.face_ids().next().map(|f| m.face(f).label);
+        let one_label = m.face_ids().all(|f| Some(m.face(f).label) == first_label);
+        // The records of each edge's two sides are read in parallel: this pass waits on memory
+        // (a twin lies wherever its face was created).
+        let hs: Vec<HalfEdgeId> = m.edge_ids().collect();
+        let rows: Vec<(u32, u32, u8, [u32; 2])> = hs
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|&h| {
+                let t = m.twin(h);
+                let (a, b) = (index[m.origin(h)], index[m.origin(t)]);
+                match (m.face_of(h), m.face_of(t)) {
+                    (Some(f1), Some(f2)) if one_label || m.face(f1).label == m.face(f2).label => {
+                        (a, b, EDGE_INTERIOR, [index[m.origin(m.prev(h))], index[m.origin(m.prev(t))]])
+                    }
+                    (Some(_), Some(_)) => (a, b, EDGE_INTERFACE, [0, 0]),
+                    _ => (a, b, EDGE_BOUNDARY, [0, 0]),
+                }
+            })
+            .collect();
+        for (&(a, b, kind, [c, d]), &h) in rows.iter().zip(&hs) {
+            deg[a as usize] += 1;
+            deg[b as usize] += 1;
+            edges.push((a, b, h, kind));
+            if kind == EDGE_INTERIOR {
+                quads.push([a, b, c, d]);
+                quad_edges.push(h);
+            }
+        }
+        let mut adj_start = Vec::with_capacity(n + 1);
+        let mut acc = 0u32;
+        for &d in &deg[..n] {
+            adj_start.push(acc);
+            acc += d;
+        }
+        adj_start.push(acc);
+        let mut cursor: Vec<u32> = adj_start[..n].to_vec();
+        let mut adj = vec![0u32; acc as usize];
+        for &(a, b, _, _) in &edges {
+            adj[cursor[a as usize] as usize] = b;
+            cursor[a as usize] += 1;
+            adj[cursor[b as usize] as usize] = a;
+            cursor[b as usize] += 1;
+        }
+        let tri_faces: Vec<crate::topology::FaceId> = m.face_ids().collect();
+        let tris: Vec<[u32; 3]> =
+            tri_faces.par_iter().with_min_len(CHUNK).map(|&f| m.face_vertices(f).map(|v| index[v])).collect();
+        let vt = Incidence::new(n, &tris);
+        let mut loop_nbrs = vec![(u32::MAX, u32::MAX); ids.len()];
+        let mut apexes = Vec::new();
+        for &(_, _, h, kind) in &edges {
+            if kind != EDGE_BOUNDARY {
+                continue;
+            }
+            // g: the boundary half-edge of this edge, v -> c along the loop.
+            let g = if m.face_of(h).is_none() { h } else { m.twin(h) };
+            let v = index[m.origin(g)] as usize;
+            if m.vertex(m.origin(g)).out == g {
+                loop_nbrs[v] = (index[m.origin(m.prev(g))], index[m.dest(g)]);
+            }
+            let inner = m.twin(g); // c -> v, has the face
+            let apex = m.origin(m.prev(inner));
+            if !m.is_boundary_vertex(apex) {
+                apexes.push((index[apex], index[m.origin(inner)], v as u32));
+            }
+        }
+        let mut iface_nbrs = Vec::new();
+        if edges.iter().any(|e| e.3 == EDGE_INTERFACE) {
+            iface_nbrs = vec![[u32::MAX; 2]; ids.len()];
+            for &(a, b, _, kind) in &edges {
+                if kind == EDGE_INTERFACE {
+                    for (x, y) in [(a, b), (b, a)] {
+                        let slot = &mut iface_nbrs[x as usize];
+                        if slot[0] == u32::MAX {
+                            slot[0] = y;
+                        } else {
+                            slot[1] = y;
+                        }
+                    }
+                }
+            }
+        }
+        Snapshot {
+            ids,
+            kind,
+            adj_start,
+            adj,
+            tris,
+            tri_faces,
+            vt,
+            edges,
+            quads,
+            quad_edges,
+            loop_nbrs,
+            apexes,
+            iface_nbrs,
+        }
+    }
+
+    /// The given nodes and their neighbours, each once, in order of first appearance.
+    pub(super) fn with_neighbours(&self, nodes: &[u32], marks: &mut Marks) -> Vec<u32> {
+        marks.reset(self.ids.len());
+        let mut out = Vec::with_capacity(4 * nodes.len());
+        for &i in nodes {
+            if marks.mark(i) {
+                out.push(i);
+            }
+            for k in self.adj_start[i as usize]..self.adj_start[i as usize + 1] {
+                let j = self.adj[k as usize];
+                if marks.mark(j) {
+                    out.push(j);
+                }
+            }
+        }
+        out
+    }
+
+    /// The triangles of the given vertices, each once, in order of first appearance.
+    pub(super) fn triangles_of(&self, vertices: &[u32], marks: &mut Marks) -> Vec<u32> {
+        marks.reset(self.tris.len());
+        let mut out = Vec::with_capacity(2 * vertices.len());
+        for &v in vertices {
+            for &t in self.vt.of(v as usize) {
+                if marks.mark(t) {
+                    out.push(t);
+                }
+            }
+        }
+        out
+    }
+
+    /// Edges that fail the exact in-circle test at positions `p`, found in parallel.
+    /// Whether moving internal-boundary vertex i from p[i] to q keeps it on the same side of
+    /// each of its neighbours along the curve (seen along the edge to that neighbour).
+    pub(super) fn keeps_curve_order(&self, i: usize, p: &[DVec2], q: DVec2) -> bool {
+        let Some(nb) = self.iface_nbrs.get(i) else { return true };
+        nb.iter().filter(|&&j| j != u32::MAX).all(|&j| {
+            let pj = p[j as usize];
+            (q - pj).dot(p[i] - pj) > 0.0
+        })
+    }
+
+    /// Only quads with a vertex away from `pold` (its position at the last check): the others
+    /// were checked then. With a metric, `ctx` decides by [`Ctx::metric_flip`] instead.
+    pub(super) fn non_delaunay(&self, p: &[DVec2], pold: &[DVec2], ctx: Option<&Ctx>) -> Vec<HalfEdgeId> {
+        self.quads
+            .par_iter()
+            .zip(self.quad_edges.par_iter())
+            .with_min_len(CHUNK)
+            .filter(|(q, _)| {
+                let [a, b, c, d] = **q;
+                if q.iter().all(|&v| p[v as usize] == pold[v as usize]) {
+                    return false;
+                }
+                let (pa, pb, pc, pd) = (p[a as usize], p[b as usize], p[c as usize], p[d as usize]);
+                match ctx {
+                    Some(ctx) => ctx.metric_flip(pa, pb, pc, pd),
+                    None => crate::predicates::incircle(pa, pb, pc, pd) == Sign::Positive,
+                }
+            })
+            .map(|(_, h)| *h)
+            .collect()
+    }
+}
+
+/// Membership marks over `0..n` that are cleared in O(1): a generation counter.
+#[derive(Default)]
+pub(super) struct Marks {
+    pub(super) stamp: Vec<u32>,
+    pub(super) now: u32,
+}
+
+impl Marks {
+    /// Forgets every mark; makes room for `n` items.
+    pub(super) fn reset(&mut self, n: usize) {
+        if self.stamp.len() != n || self.now == u32::MAX {
+            self.stamp = vec![0; n];
+            self.now = 0;
+        }
+        self.now += 1;
+    }
+    /// Marks i; true when it was not marked yet.
+    pub(super) fn mark(&mut self, i: u32) -> bool {
+        let s = &mut self.stamp[i as usize];
+        let fresh = *s != self.now;
+        *s = self.now;
+        fresh
+    }
+}
+
+/// The edge (index into `snap.edges`) of each adjacency slot, in the order the snapshot
+/// filled them.
+pub(super) fn adjacency_edges(snap: &Snapshot) -> Vec<u32> {
+    let n = snap.ids.len();
+    let mut cursor: Vec<u32> = snap.adj_start[..n].to_vec();
+    let mut out = vec![0u32; snap.adj.len()];
+    for (e, &(a, b, _, _)) in snap.edges.iter().enumerate() {
+        out[cursor[a as usize] as usize] = e as u32;
+        cursor[a as usize] += 1;
+        out[cursor[b as usize] as usize] = e as u32;
+        cursor[b as usize] += 1;
+    }
+    out
+}
+
+/// Deterministic parallel sum: fixed chunks, partial sums added in order.
+pub(super) fn det_sum(n: usize, f: impl Fn(usize) -> (f64, f64) + Sync) -> (f64, f64) {
+    let parts: Vec<(f64, f64)> = (0..n.div_ceil(CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut s = (0.0, 0.0);
+            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let (a, b) = f(i);
+                s.0 += a;
+                s.1 += b;
+            }
+            s
+        })
+        .collect();
+    parts.iter().fold((0.0, 0.0), |acc, s| (acc.0 + s.0, acc.1 + s.1))
+}
+
+pub(super) fn write_back(m: &mut TriMesh<DVec2>, snap: &Snapshot, p: &[DVec2]) {
+    for (i, &v) in snap.ids.iter().enumerate() {
+        m.set_pos_unchecked(v, p[i]);
+    }
+}
+
+pub(super) fn mean_quality(ctx: &Ctx, snap: &Snapshot, p: &[DVec2]) -> f64 {
+    let (s, _) = det_sum(snap.tris.len(), |t| {
+        let [a, b, c] = snap.tris[t];
+        (ctx.tri_q([p[a as usize], p[b as usize], p[c as usize]]), 0.0)
+    });
+    s / snap.tris.len().max(1) as f64
+}
+
+/// Halves the step of every vertex of a triangle that would not be positively oriented (exact),
+/// three times, then puts them back; repeats until every triangle is positive. The old
+/// positions are valid, so this ends.
+///
+/// `tris`: the triangles that can have moved (indices into `snap.tris`); all when `None`.
+pub(super) fn guard_inversions(snap: &Snapshot, old: &[DVec2], newp: &mut [DVec2], tris: Option<&[u32]>) {
+    let mut factor: crate::FastMap<usize, u8> = crate::FastMap::default(); // halvings applied
+    let all: Vec<u32>;
+    let tris = match tris {
+        Some(t) => t,
+        None => {
+            all = (0..snap.tris.len() as u32).collect();
+            &all
+        }
+    };
+    loop {
+        let bad: Vec<u32> = tris
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|&t| snap.tris[t as usize])
+            .filter(|t| {
+                let [a, b, c] = *t;
+                orient2d(newp[a as usize], newp[b as usize], newp[c as usize]) != Sign::Positive
+            })
+            .flat_map_iter(|t| t.into_iter())
+            .collect();
+        if bad.is_empty() {
+            return;
+        }
+        let mut touched = false;
+        for &v in &bad {
+            let v = v as usize;
+            if newp[v] == old[v] {
+                continue;
+            }
+            touched = true;
+            let f = factor.entry(v).or_insert(1);
+            *f += 1;
+            newp[v] = if *f > 3 { old[v] } else { old[v] + (newp[v] - old[v]) * 0.5 };
+        }
+        if !touched {
+            // Every vertex of every bad triangle is back at its old position: cannot happen
+            // for a valid start, but never loop.
+            return;
+        }
+    }
+}
