@@ -11,6 +11,7 @@ mod options3;
 mod planar;
 mod report3;
 mod sharp;
+mod truss;
 
 pub use metric::{Metric2, Metric3, MetricFn2, MetricGrid2, MetricStats};
 pub use options3::{Options3, SizeFn3};

@@ -239,7 +239,7 @@ pub(super) fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &
             newp[i] = q;
         }
     }
-    guard_inversions(snap, &old, &mut newp, None);
+    snap.guard_inversions(&old, &mut newp, None);
     p.copy_from_slice(&newp);
     let _ = m;
     Ok(())

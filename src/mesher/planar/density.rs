@@ -1,9 +1,8 @@
 use super::*;
 
-/// Boundary edges longer than this many current mean lengths are split.
-pub(super) const BOUNDARY_SPLIT_ABOVE: f64 = 1.6;
-/// Boundary edges shorter than this many current mean lengths are collapsed.
-pub(super) const BOUNDARY_COLLAPSE_BELOW: f64 = 0.6;
+/// Boundary edges are split above and collapsed below these many current mean lengths: the
+/// boundary spacing follows the mesh's own scale, which the interior sets.
+pub(super) const BOUNDARY_BAND: DensityBand = DensityBand::new(1.6, 0.6);
 /// Edges to split, edges to collapse and faces to repair, found in parallel on the snapshot.
 pub(super) struct Candidates {
     pub(super) long: Vec<(f64, HalfEdgeId)>,
@@ -28,7 +27,7 @@ pub(super) fn density_candidates(
     p: &[DVec2],
     unit: f64,
     metric_unit: Option<f64>,
-    (split_above, collapse_below): (f64, f64),
+    band: DensityBand,
 ) -> Result<Candidates, Error> {
     let h0 = ctx.opts.h0;
     // (ratio, edge, +1 long / -1 short)
@@ -50,9 +49,9 @@ pub(super) fn density_candidates(
                 };
                 (pa.distance(pb) / (h0 * hm), pa.distance(pb) / (unit * hm))
             };
-            if r > split_above {
+            if band.splits(r) {
                 Some(Ok((r, h, 1)))
-            } else if r < collapse_below {
+            } else if band.collapses(r) {
                 Some(Ok((r, h, -1)))
             } else if kind != EDGE_INTERIOR {
                 // Boundary (and internal-boundary) spacing follows the mesh's own current scale
@@ -67,9 +66,9 @@ pub(super) fn density_candidates(
                 } else {
                     0.0
                 };
-                if rb > BOUNDARY_SPLIT_ABOVE || sag > METRIC_SAGITTA {
+                if BOUNDARY_BAND.splits(rb) || sag > METRIC_SAGITTA {
                     Some(Ok((rb.max(sag / METRIC_SAGITTA), h, 1)))
-                } else if rb < BOUNDARY_COLLAPSE_BELOW && 4.0 * sag <= METRIC_SAGITTA {
+                } else if BOUNDARY_BAND.collapses(rb) && 4.0 * sag <= METRIC_SAGITTA {
                     Some(Ok((rb, h, -1)))
                 } else {
                     None
@@ -108,8 +107,8 @@ pub(super) fn surely_not_below_repair(a: DVec2, b: DVec2, c: DVec2) -> bool {
     4.0 * twice_area * twice_area >= 1.01 * 3.0 * Q_REPAIR * l2 * l2
 }
 
-/// Splits edges longer than SPLIT_ABOVE targets, collapses edges shorter than COLLAPSE_BELOW
-/// targets and the shortest edge of triangles below Q_REPAIR, then restores Delaunay.
+/// Splits the long edges and collapses the short ones of `cands` (see [`density_candidates`]),
+/// and the shortest edge of triangles below Q_REPAIR, then restores Delaunay.
 /// Returns whether the topology changed.
 pub(super) fn density_control(
     ctx: &mut Ctx,

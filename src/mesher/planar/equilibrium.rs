@@ -15,26 +15,23 @@ pub(super) const LARGE_WINDOW: usize = 20;
 /// neighbours that did too, is settled and skipped (a tenth of the default dptol).
 pub(super) const SETTLE: f64 = 5e-4;
 /// The run stops on a quality plateau: the mean quality, sampled at the end of every window,
-/// gained less than this over PLATEAU_WINDOWS samples in a row.
+/// rose less than this above the best before it in PLATEAU_WINDOWS windows in a row.
 pub(super) const QUALITY_PLATEAU: f64 = 1e-6;
 pub(super) const PLATEAU_WINDOWS: usize = 30;
-/// With a metric, density control splits above and collapses below these metric lengths.
-/// (Measured on figure 3-6: wider bands leave the truss too coarse inside and too crowded in
-/// the layer; (1.45, 0.65) gives 96% of edges in [0.707, 1.414].)
-pub(super) const METRIC_BAND: (f64, f64) = (1.45, 0.65);
+/// With a metric, density control splits above and collapses below these metric lengths
+/// (wider bands leave the truss too coarse inside and too crowded in a boundary layer).
+pub(super) const METRIC_BAND: DensityBand = DensityBand::new(1.45, 0.65);
 /// Starting from a previous mesh (moving meshes, remeshing), density control splits above and
 /// collapses below these target lengths: areas change, and the wide band of a fresh start
 /// would let a growing region coarsen to twice its size.
-pub(super) const MOVING_BAND: (f64, f64) = (1.5, 0.6);
-/// The same for a moving-mesh step with freezing. The held far field passes neither pressure
-/// nor tension on: the nodes the boundary pushes ahead of it stay squeezed in the thin active
-/// region, and those it leaves behind stretched, until density control acts. With the wide
-/// band they were collapsed only at 0.6 target lengths, and the distorted triangles were left
-/// behind in the frozen wake (figure 5-2 with one ring: q mean 0.9445). Collapsing from 0.82
-/// keeps the node count steady and the worst q mean at 0.965 (of 33 pairs measured between
-/// (1.3, 0.72) and (1.6, 0.9), 30 met q min 0.5 and q mean 0.95; collapsing from 0.6 or 0.7
-/// let the wake drift below q mean 0.95 again).
-pub(super) const FREEZING_BAND: (f64, f64) = (1.5, 0.82);
+pub(super) const MOVING_BAND: DensityBand = DensityBand::new(1.5, 0.6);
+/// The same for a moving-mesh step with freezing: the held far field passes no pressure on,
+/// so the nodes a moving boundary leaves behind are collapsed sooner (from 0.82 target
+/// lengths), before the distorted triangles are frozen into its wake.
+pub(super) const FREEZING_BAND: DensityBand = DensityBand::new(1.5, 0.82);
+/// The force loop (seed section 2.3): forward Euler steps of the truss with boundary
+/// projection and step control, connectivity by exact in-circle flips, boundary membership
+/// and density control every window, until the nodes rest or the quality stops rising.
 pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     let opts = ctx.opts;
     let h0 = opts.h0;
@@ -50,8 +47,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     let mut mv: Vec<Metric2> = Vec::new();
     let mut munit = 1.0;
     let mut slots: Vec<u32> = Vec::new();
-    let mut last_q = 0.0;
-    let mut stall = 0;
+    let mut plateau = truss::Plateau::every_window(QUALITY_PLATEAU, PLATEAU_WINDOWS);
     let mut rebuilds = 0usize;
     let mut converged = false;
     let mut iter = 0;
@@ -148,9 +144,9 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             let mut s = (0.0, 0.0);
             for k in snap.adj_start[i]..snap.adj_start[i + 1] {
                 let j = snap.adj[k as usize] as usize;
-                let hb = 0.5 * (hv[i] + hv[j]);
-                s.0 += p[i].distance_squared(p[j]);
-                s.1 += hb * hb;
+                let (l, h) = RestScale::terms(2, p[i].distance_squared(p[j]), 0.5 * (hv[i] + hv[j]));
+                s.0 += l;
+                s.1 += h;
             }
             s
         };
@@ -161,8 +157,8 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         if full {
             scale_sums = det_sum(p.len(), node_sums);
         }
-        let (sl, sh) = scale_sums;
-        let scale = opts.fscale * (sl / sh).sqrt();
+        let rest = RestScale::from_sums(2, scale_sums);
+        let scale = rest.scale(opts.fscale);
         // With a metric: the boundary pushes back on interior nodes through a bar to their
         // mirror image across d = 0, of rest length twice an equilateral height (sqrt 3 L0):
         // a boundary chord alone barely resists a node approaching it along the normal, and
@@ -204,22 +200,14 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 if metric.is_some() {
                     for k in snap.adj_start[i]..snap.adj_start[i + 1] {
                         let j = snap.adj[k as usize] as usize;
-                        let d = p[i] - p[j];
-                        let l = el[k as usize];
-                        if l > 0.0 && scale > l {
-                            f += d * ((scale - l) / l);
-                        }
+                        f += bar_force(p[i] - p[j], el[k as usize], scale);
                     }
                     return p[i] + dt * (f + wall[i]);
                 }
                 for k in snap.adj_start[i]..snap.adj_start[i + 1] {
                     let j = snap.adj[k as usize] as usize;
                     let d = p[i] - p[j];
-                    let l = d.length();
-                    let l0 = 0.5 * (hv[i] + hv[j]) * scale;
-                    if l > 0.0 && l0 > l {
-                        f += d * ((l0 - l) / l);
-                    }
+                    f += bar_force(d, d.length(), 0.5 * (hv[i] + hv[j]) * scale);
                 }
                 p[i] + dt * f
             })
@@ -339,7 +327,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         joining_internal.sort_unstable();
         // Step control: no triangle may invert; vertices of offending triangles step back.
         let tris = if full { None } else { Some(snap.triangles_of(&active, &mut tri_marks)) };
-        guard_inversions(&snap, &p, &mut newp, tris.as_deref());
+        snap.guard_inversions(&p, &mut newp, tris.as_deref());
         // Boundary nodes count too once the step is taken: a node still travelling to d = 0
         // (a start cut from a previous mesh) is not settled.
         let boundary_move = active
@@ -388,7 +376,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         }
         // Density control and repair of bad triangles.
         if iter % window == 0 {
-            let mu = metric.map(|_| (sl / sh).sqrt());
+            let mu = metric.map(|_| rest.unit());
             let band = if metric.is_some() {
                 METRIC_BAND
             } else if ctx.freezing {
@@ -396,14 +384,14 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             } else if ctx.from_previous {
                 MOVING_BAND
             } else {
-                (SPLIT_ABOVE, COLLAPSE_BELOW)
+                FRESH_BAND
             };
-            let cands = density_candidates(ctx, &snap, &p, (sl / sh).sqrt(), mu, band)?;
+            let cands = density_candidates(ctx, &snap, &p, rest.unit(), mu, band)?;
             if !cands.is_empty() {
                 write_back(m, &snap, &p);
                 topo_changed |= density_control(ctx, m, cands, !large)?;
             }
-            unit = (sl / sh).sqrt();
+            unit = rest.unit();
             munit = unit;
         }
         let el_s = ti.elapsed().as_secs_f64();
@@ -434,7 +422,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             }
         }
         // Only a full sweep sees every node's step: a settled node's force may have grown since.
-        if full && max_move < opts.dptol && iter > window {
+        if full && truss::stop::at_rest(max_move, opts.dptol, iter, window) {
             converged = true;
             ctx.report.stop_reason = format!("nodes moved less than dptol = {} (relative to h)", opts.dptol);
             break;
@@ -452,17 +440,11 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                     ctx.joined
                 );
             }
-            if q - last_q < QUALITY_PLATEAU {
-                stall += 1;
-                if stall >= PLATEAU_WINDOWS {
-                    converged = true;
-                    ctx.report.stop_reason = "mean quality stopped improving".into();
-                    break;
-                }
-            } else {
-                stall = 0;
+            if plateau.reached(q) {
+                converged = true;
+                ctx.report.stop_reason = "mean quality stopped improving".into();
+                break;
             }
-            last_q = last_q.max(q);
         }
     }
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
@@ -484,7 +466,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     // Final cleanup: repair bad triangles, restore Delaunay. The snapshot is current: it is
     // rebuilt after every topology change, and only positions changed since.
     let mu = metric.map(|_| munit);
-    let band = if metric.is_some() { METRIC_BAND } else { (SPLIT_ABOVE, COLLAPSE_BELOW) };
+    let band = if metric.is_some() { METRIC_BAND } else { FRESH_BAND };
     let cands = density_candidates(ctx, &snap, &p, unit, mu, band)?;
     // The global pass follows.
     density_control(ctx, m, cands, false)?;

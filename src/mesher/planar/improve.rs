@@ -1,4 +1,5 @@
 use super::smoothing::*;
+use crate::mesher::truss::{backtrack, bar_force, RestScale};
 use crate::topology::{FaceId, TriMesh, VertexId, VertexTag};
 use crate::Error;
 use glam::DVec2;
@@ -280,14 +281,12 @@ pub(super) fn legalize_around(m: &mut TriMesh<DVec2>, v: VertexId) {
 /// Fscale sqrt(sum L^2 / sum h_bar^2) over the edges of `m` (seed eq. 2.6): the rest length
 /// of a bar is this times its mean relative size.
 pub(super) fn bar_scale(m: &TriMesh<DVec2>, g: &Geometry) -> Result<f64, Error> {
-    let (mut sl, mut sh) = (0.0, 0.0);
+    let mut rest = RestScale::new(2);
     for e in m.edge_ids() {
         let (a, b) = (m.pos(m.origin(e)), m.pos(m.dest(e)));
-        let hb = 0.5 * ((g.h)(a)? + (g.h)(b)?);
-        sl += a.distance_squared(b);
-        sh += hb * hb;
+        rest.add(a.distance_squared(b), 0.5 * ((g.h)(a)? + (g.h)(b)?));
     }
-    Ok(g.fscale * (sl / sh).sqrt())
+    Ok(rest.scale(g.fscale))
 }
 
 /// The vertices within `rings` edges of `seeds`, in a deterministic order.
@@ -347,11 +346,7 @@ pub(super) fn relax(m: &mut TriMesh<DVec2>, g: &Geometry, seeds: &[VertexId], sc
             let mut f = DVec2::ZERO;
             for &w in &nbrs[k] {
                 let d = pv - m.pos(w);
-                let l = d.length();
-                let l0 = 0.5 * (hv + hs[w]) * scale;
-                if l > 0.0 && l0 > l {
-                    f += d * ((l0 - l) / l);
-                }
+                f += bar_force(d, d.length(), 0.5 * (hv + hs[w]) * scale);
             }
             steps.push(pv + g.dt * f);
         }
@@ -368,12 +363,9 @@ pub(super) fn relax(m: &mut TriMesh<DVec2>, g: &Geometry, seeds: &[VertexId], sc
                     None => continue,
                 }
             }
-            for t in [1.0, 0.5, 0.25] {
-                let y = old + (x - old) * t;
-                if m.relocate(v, y).is_ok() {
-                    moved = moved.max(y.distance(old) / (scale * hs[v]));
-                    break;
-                }
+            let taken = backtrack(old, x, 2, |y| Ok::<bool, Error>(m.relocate(v, y).is_ok()))?;
+            if let Some(y) = taken {
+                moved = moved.max(y.distance(old) / (scale * hs[v]));
             }
         }
         if moved < RELAX_TOL {

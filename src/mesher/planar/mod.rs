@@ -33,6 +33,7 @@ use crate::geometry::Implicit2;
 use crate::mesher::input::{eval_d, eval_h_floor, survey};
 use crate::mesher::internal::{self, Internal};
 use crate::mesher::metric::{self, eval_metric, metric_triangle_q, Metric2, MetricFn2};
+use crate::mesher::truss::{self, bar_force, det_sum, DensityBand, Marks, RestScale, CHUNK};
 use crate::mesher::MeshOutput2;
 use crate::predicates::{orient2d, Sign};
 use crate::topology::{HalfEdgeId, Incidence, Level, TriMesh, VertexId, VertexTag};
@@ -55,10 +56,9 @@ const INIT_SPLIT: f64 = std::f64::consts::SQRT_2;
 /// itself: figure 3-6's boundary layer came out thinner from this start (0.0108 against 0.0151
 /// with the square root of 2; its test asks at most 0.015).
 const INIT_SPLIT_METRIC: f64 = 1.5;
-/// Density control splits edges longer than this many target lengths (hysteresis band).
-const SPLIT_ABOVE: f64 = 2.0;
-/// Density control collapses edges shorter than this many target lengths.
-const COLLAPSE_BELOW: f64 = 0.4;
+/// Density control of a fresh mesh splits edges longer than 2 and collapses edges shorter
+/// than 0.4 target lengths (a wide hysteresis band: the forces set the lengths in between).
+const FRESH_BAND: DensityBand = DensityBand::new(2.0, 0.4);
 /// Initial meshes with more vertices than this are laid out along a Hilbert curve, and their
 /// force loop skips settled nodes.
 const RELAYOUT_ABOVE: usize = 20_000;
@@ -68,14 +68,12 @@ const EAR_Q: f64 = 0.2;
 /// the new domain are kept (and projected) rather than dropped.
 const CARRY_BOUNDARY: f64 = 0.5;
 /// Remeshing for a new size field first splits and collapses edges outside this band of
-/// target lengths (split above, collapse below), for at most ADAPT_ROUNDS rounds.
-const ADAPT_BAND: (f64, f64) = (1.4, 0.7);
+/// target lengths, for at most ADAPT_ROUNDS rounds.
+const ADAPT_BAND: DensityBand = DensityBand::new(1.4, 0.7);
 const ADAPT_ROUNDS: usize = 8;
 /// With a metric, an edge flips only when the worse of its two triangles gains this share of
 /// metric quality.
 const METRIC_FLIP_GAIN: f64 = 0.02;
-/// Chunk size of the deterministic parallel loops.
-const CHUNK: usize = 4096;
 
 /// Vertex kinds in the compact arrays.
 const INTERIOR: u8 = 0;

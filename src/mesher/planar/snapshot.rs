@@ -1,5 +1,9 @@
 use super::*;
 
+/// Step control: a vertex of a triangle a step would invert steps back halfway at most this
+/// many times, then stays where it was.
+const MAX_HALVINGS: u8 = 2;
+
 /// Between two subdomains (an internal boundary).
 pub(super) const EDGE_INTERFACE: u8 = 2;
 
@@ -148,6 +152,14 @@ impl Snapshot {
         }
     }
 
+    /// Step control from `old` to `newp` (only the triangles in `subset` when given): a vertex
+    /// of a triangle the step would invert steps back halfway, at most MAX_HALVINGS times.
+    pub(super) fn guard_inversions(&self, old: &[DVec2], newp: &mut [DVec2], subset: Option<&[u32]>) {
+        truss::guard_inversions(&self.tris, subset, old, newp, MAX_HALVINGS, |q, t| {
+            orient2d(q[t[0] as usize], q[t[1] as usize], q[t[2] as usize]) == Sign::Positive
+        });
+    }
+
     /// The given nodes and their neighbours, each once, in order of first appearance.
     pub(super) fn with_neighbours(&self, nodes: &[u32], marks: &mut Marks) -> Vec<u32> {
         marks.reset(self.ids.len());
@@ -214,31 +226,6 @@ impl Snapshot {
     }
 }
 
-/// Membership marks over `0..n` that are cleared in O(1): a generation counter.
-#[derive(Default)]
-pub(super) struct Marks {
-    pub(super) stamp: Vec<u32>,
-    pub(super) now: u32,
-}
-
-impl Marks {
-    /// Forgets every mark; makes room for `n` items.
-    pub(super) fn reset(&mut self, n: usize) {
-        if self.stamp.len() != n || self.now == u32::MAX {
-            self.stamp = vec![0; n];
-            self.now = 0;
-        }
-        self.now += 1;
-    }
-    /// Marks i; true when it was not marked yet.
-    pub(super) fn mark(&mut self, i: u32) -> bool {
-        let s = &mut self.stamp[i as usize];
-        let fresh = *s != self.now;
-        *s = self.now;
-        fresh
-    }
-}
-
 /// The edge (index into `snap.edges`) of each adjacency slot, in the order the snapshot
 /// filled them.
 pub(super) fn adjacency_edges(snap: &Snapshot) -> Vec<u32> {
@@ -254,23 +241,6 @@ pub(super) fn adjacency_edges(snap: &Snapshot) -> Vec<u32> {
     out
 }
 
-/// Deterministic parallel sum: fixed chunks, partial sums added in order.
-pub(super) fn det_sum(n: usize, f: impl Fn(usize) -> (f64, f64) + Sync) -> (f64, f64) {
-    let parts: Vec<(f64, f64)> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let mut s = (0.0, 0.0);
-            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                let (a, b) = f(i);
-                s.0 += a;
-                s.1 += b;
-            }
-            s
-        })
-        .collect();
-    parts.iter().fold((0.0, 0.0), |acc, s| (acc.0 + s.0, acc.1 + s.1))
-}
-
 pub(super) fn write_back(m: &mut TriMesh<DVec2>, snap: &Snapshot, p: &[DVec2]) {
     for (i, &v) in snap.ids.iter().enumerate() {
         m.set_pos_unchecked(v, p[i]);
@@ -283,52 +253,4 @@ pub(super) fn mean_quality(ctx: &Ctx, snap: &Snapshot, p: &[DVec2]) -> f64 {
         (ctx.tri_q([p[a as usize], p[b as usize], p[c as usize]]), 0.0)
     });
     s / snap.tris.len().max(1) as f64
-}
-
-/// Halves the step of every vertex of a triangle that would not be positively oriented (exact),
-/// three times, then puts them back; repeats until every triangle is positive. The old
-/// positions are valid, so this ends.
-///
-/// `tris`: the triangles that can have moved (indices into `snap.tris`); all when `None`.
-pub(super) fn guard_inversions(snap: &Snapshot, old: &[DVec2], newp: &mut [DVec2], tris: Option<&[u32]>) {
-    let mut factor: crate::FastMap<usize, u8> = crate::FastMap::default(); // halvings applied
-    let all: Vec<u32>;
-    let tris = match tris {
-        Some(t) => t,
-        None => {
-            all = (0..snap.tris.len() as u32).collect();
-            &all
-        }
-    };
-    loop {
-        let bad: Vec<u32> = tris
-            .par_iter()
-            .with_min_len(CHUNK)
-            .map(|&t| snap.tris[t as usize])
-            .filter(|t| {
-                let [a, b, c] = *t;
-                orient2d(newp[a as usize], newp[b as usize], newp[c as usize]) != Sign::Positive
-            })
-            .flat_map_iter(|t| t.into_iter())
-            .collect();
-        if bad.is_empty() {
-            return;
-        }
-        let mut touched = false;
-        for &v in &bad {
-            let v = v as usize;
-            if newp[v] == old[v] {
-                continue;
-            }
-            touched = true;
-            let f = factor.entry(v).or_insert(1);
-            *f += 1;
-            newp[v] = if *f > 3 { old[v] } else { old[v] + (newp[v] - old[v]) * 0.5 };
-        }
-        if !touched {
-            // Every vertex of every bad triangle is back at its old position: cannot happen
-            // for a valid start, but never loop.
-            return;
-        }
-    }
 }

@@ -1,0 +1,20 @@
+//! The truss, shared by the planar, volume and surface meshers: what every force loop does the
+//! same way, written once (seed chapter 2).
+//!
+//! - [`force`]: the bar-force kernel (seed eq. 2.5) and the rest-length scale (eq. 2.6);
+//! - [`step`]: step control, so that no forward Euler step (eq. 2.4) inverts an element;
+//! - [`band`]: the density band, splits above and collapses below a length in target units;
+//! - [`stop`]: the stop tests (node movement below dptol, quality plateau);
+//! - [`parallel`]: deterministic parallel sums and O(1)-cleared marks for the hot loops.
+
+pub(crate) mod band;
+pub(crate) mod force;
+pub(crate) mod parallel;
+pub(crate) mod step;
+pub(crate) mod stop;
+
+pub(crate) use band::DensityBand;
+pub(crate) use force::{bar_force, RestScale};
+pub(crate) use parallel::{det_sum, Marks, CHUNK};
+pub(crate) use step::{backtrack, guard_inversions};
+pub(crate) use stop::Plateau;
