@@ -7,20 +7,19 @@ pub mod image;
 mod input;
 mod internal;
 mod local2d;
-mod local3d;
 pub mod metric;
 mod options;
-mod options3;
 mod polish2d;
 mod report;
-mod report3;
 mod sharp;
+mod volume;
 
+pub use crate::quality::tet_circumradius as circumradius;
 pub use metric::{Metric2, Metric3, MetricFn2, MetricGrid2, MetricStats};
 pub use options::{Options2, ProgressFn, SizeFn2, Strategy};
-pub use options3::{Options3, SizeFn3};
 pub use report::{area, boundary_deviation, size_deviation, QualityStats, Report};
-pub use report3::{boundary_deviation_3d, circumradius, size_deviation_3d, QualityStats3, Report3};
+pub use volume::options::{Options3, SizeFn3};
+pub use volume::report::{boundary_deviation_3d, size_deviation_3d, QualityStats3, Report3};
 
 use crate::geometry::{Implicit2, Implicit3};
 use crate::topology::{TetMesh, TriMesh};
@@ -54,7 +53,7 @@ pub struct MeshOutput3 {
 /// assert!(out.report.quality.dihedral_min > 5.0);
 /// ```
 pub fn mesh_3d(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, crate::Error> {
-    local3d::run(domain, opts)
+    volume::run(domain, opts)
 }
 
 /// Meshes {d < 0} in 2-D.

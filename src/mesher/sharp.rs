@@ -1,6 +1,6 @@
-//! The thresholds of sharp-feature detection, shared by the 2-D corner finder
-//! (`corners2d`) and the 3-D edge and corner finder (`crease_points` in `local3d`). Lengths are
-//! in sample spacings: the 2-D grid's spacing, or the 3-D surface start points' gap (times h).
+//! The thresholds of sharp-feature detection, shared by the 2-D corner finder (`corners2d`)
+//! and the 3-D edge and corner finder (`crease_points` in `volume::features`). Lengths are in
+//! sample spacings: the 2-D grid's spacing, or the 3-D surface start points' gap (times h).
 
 /// Normals differing by more than this many degrees mark a corner or an edge.
 pub(crate) const SHARP_DEG: f64 = 40.0;
