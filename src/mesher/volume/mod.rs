@@ -3,21 +3,22 @@
 //!
 //! 1. Start ([`start`]): a body-centred cubic lattice over the box (well-shaped Delaunay tets),
 //!    thinned by the size function as in the seed (keep with probability (h_min / h)^3), points
-//!    with d < 0 (moved off the lattice by 1e-6 of its side, see [`start::jitter`]), points
+//!    with d < 0 (moved off the lattice by 1e-6 of its side, see `start::jitter`), points
 //!    projected onto d = 0 and points on sharp edges and corners ([`features`]), Delaunay through
 //!    the engine, tets with centroid outside carved away, pinched vertices and edges repaired.
-//! 2. Force equilibrium ([`equilibrium`]): repulsive bars f = max(L0 - L, 0) (seed eq. 2.6 with
-//!    the cube root), forward Euler on compact arrays ([`snapshot`]), boundary nodes projected
-//!    onto d = 0 every step, step control so that no tet inverts (exact orient3d), Lawson flips
-//!    (exact insphere) around nodes that moved, surface edge flips ([`boundary`]), density
-//!    control (splits and collapses, [`density`]), tets squashed against the boundary removed
-//!    (one at a time, or carved together when they are stuck, [`carve`]).
-//! 3. Sliver removal ([`improve`]): the worst tets (by dihedral angles) are attacked by swaps
-//!    (edge removal with an optimal ring triangulation, Shewchuk 2002; 2-3 flips; boundary edge
-//!    flips), by optimisation-based smoothing of their vertices (maximise the worst quality in
-//!    the star, Freitag and Ollivier-Gooch 1997, [`smoothing`]), then by small random
-//!    perturbations (Tournois et al. 2009), each accepted only when the local worst quality
-//!    improves.
+//! 2. Force equilibrium ([`equilibrium`](mod@equilibrium)): repulsive bars f = max(L0 - L, 0)
+//!    (seed eq. 2.6 with the cube root), forward Euler on compact arrays ([`snapshot`]),
+//!    boundary nodes projected onto d = 0 every step, step control so that no tet inverts (exact
+//!    orient3d), Lawson flips (exact insphere) around nodes that moved, surface edge flips
+//!    ([`boundary`]), density control (splits and collapses, [`density`]), tets squashed
+//!    against the boundary removed (one at a time, or carved together when they are stuck,
+//!    [`carve`]).
+//! 3. Sliver removal ([`improve`](mod@improve)): the worst tets (by dihedral angles) are attacked
+//!    by swaps (edge removal with an optimal ring triangulation, Shewchuk 2002; 2-3 flips;
+//!    boundary edge flips), by optimisation-based smoothing of their vertices (maximise the
+//!    worst quality in the star, Freitag and Ollivier-Gooch 1997, [`smoothing`]), then by small
+//!    random perturbations (Tournois et al. 2009), each accepted only when the local worst
+//!    quality improves.
 //! 4. Mean quality: edge removals and 2-3 flips around the tets well below the mean that raise
 //!    the mean radius ratio, and every vertex moved uphill on its star's summed radius ratio
 //!    (by independent classes, in parallel), each keeping the local worst dihedral quality at
