@@ -94,6 +94,84 @@ pub fn tet_dihedral_angles_deg(p: [DVec3; 4]) -> [f64; 6] {
     out
 }
 
+/// Circumradius of a tetrahedron (infinite when flat).
+pub fn tet_circumradius(p: [DVec3; 4]) -> f64 {
+    let (a, b, c) = (p[1] - p[0], p[2] - p[0], p[3] - p[0]);
+    let num = a.length_squared() * b.cross(c) + b.length_squared() * c.cross(a) + c.length_squared() * a.cross(b);
+    num.length() / (2.0 * a.dot(b.cross(c)).abs())
+}
+
+/// Dihedral angle of the regular tetrahedron, degrees.
+pub(crate) const REGULAR_DIHEDRAL: f64 = 70.528_779_365_509_3;
+
+/// Dihedral quality of a tetrahedron: 1 for the regular tet, 0 when a dihedral angle reaches 0
+/// or 180 degrees; min(theta_min / 70.5, (180 - theta_max) / 109.5). Negative for inverted
+/// tets. This is the measure the 3-D mesher's targets are stated in (minimum and maximum
+/// dihedral angle).
+pub(crate) fn tet_dihedral_quality(p: [DVec3; 4]) -> f64 {
+    match tet_dihedral_cos_extremes(p) {
+        None => -1.0,
+        Some((cmax, cmin)) => dihedral_quality_of_cosines(cmax, cmin),
+    }
+}
+
+/// The largest and the smallest dihedral cosine of a positive tet; `None` when it is not
+/// positive (or not finite).
+#[inline]
+pub(crate) fn tet_dihedral_cos_extremes(p: [DVec3; 4]) -> Option<(f64, f64)> {
+    let v = tet_volume(p);
+    if v <= 0.0 || !v.is_finite() {
+        return None;
+    }
+    // Outward face normals; the dihedral at the edge shared by faces i and j has cosine
+    // -n_i . n_j. Only the extreme cosines need an acos (this runs on every tet every step).
+    let n = |a: usize, b: usize, c: usize| (p[b] - p[a]).cross(p[c] - p[a]).normalize_or_zero();
+    let f = [n(1, 2, 3), n(0, 3, 2), n(0, 1, 3), n(0, 2, 1)];
+    let (mut cmax, mut cmin) = (-1.0f64, 1.0f64);
+    for i in 0..4 {
+        for j in i + 1..4 {
+            let c = -f[i].dot(f[j]);
+            cmax = cmax.max(c);
+            cmin = cmin.min(c);
+        }
+    }
+    Some((cmax, cmin))
+}
+
+/// [`tet_dihedral_quality`] from the extreme cosines: the smallest angle (largest cosine) and
+/// the largest angle (smallest cosine) against the regular tet's.
+#[inline]
+fn dihedral_quality_of_cosines(cmax: f64, cmin: f64) -> f64 {
+    let lo = cmax.clamp(-1.0, 1.0).acos().to_degrees();
+    let hi = cmin.clamp(-1.0, 1.0).acos().to_degrees();
+    (lo / REGULAR_DIHEDRAL).min((180.0 - hi) / (180.0 - REGULAR_DIHEDRAL))
+}
+
+/// Whether [`tet_dihedral_quality`] is below `thr`, without an acos: theta_min < thr 70.53
+/// degrees or theta_max > 180 - thr 109.47 degrees, compared as cosines (the scan over every
+/// tet every step). `cos_lo` and `cos_hi` come from [`dihedral_quality_cos_bounds`].
+pub(crate) fn tet_dihedral_quality_below(p: [DVec3; 4], cos_lo: f64, cos_hi: f64) -> bool {
+    if tet_volume(p) <= 0.0 {
+        return true;
+    }
+    let n = |a: usize, b: usize, c: usize| (p[b] - p[a]).cross(p[c] - p[a]).normalize_or_zero();
+    let f = [n(1, 2, 3), n(0, 3, 2), n(0, 1, 3), n(0, 2, 1)];
+    for i in 0..4 {
+        for j in i + 1..4 {
+            let c = -f[i].dot(f[j]);
+            if c > cos_lo || c < cos_hi {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// The cosine bounds of [`tet_dihedral_quality_below`] for a threshold.
+pub(crate) fn dihedral_quality_cos_bounds(thr: f64) -> (f64, f64) {
+    ((thr * REGULAR_DIHEDRAL).to_radians().cos(), (180.0 - thr * (180.0 - REGULAR_DIHEDRAL)).to_radians().cos())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,5 +204,32 @@ mod tests {
         for a in tet_dihedral_angles_deg(p) {
             assert!((a - expect).abs() < 1e-9);
         }
+    }
+
+    #[test]
+    fn regular_tet_has_dihedral_quality_one() {
+        let s = 1.0 / 2f64.sqrt();
+        let p =
+            [DVec3::new(1.0, 0.0, -s), DVec3::new(-1.0, 0.0, -s), DVec3::new(0.0, 1.0, s), DVec3::new(0.0, -1.0, s)];
+        let p = if tet_volume(p) > 0.0 { p } else { [p[1], p[0], p[2], p[3]] };
+        assert!((tet_dihedral_quality(p) - 1.0).abs() < 1e-9, "{}", tet_dihedral_quality(p));
+        let flat = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(1.0, 1.0, 0.0)];
+        assert!(tet_dihedral_quality(flat) < 0.0);
+    }
+
+    #[test]
+    fn dihedral_quality_below_agrees_with_the_quality() {
+        let (cl, ch) = dihedral_quality_cos_bounds(0.5);
+        let mut rng = crate::testing::Rng::new(crate::testing::SEED);
+        let mut seen = [0usize; 2];
+        for _ in 0..2000 {
+            let p = [0; 4].map(|_| DVec3::new(rng.f64(), rng.f64(), rng.f64()));
+            let q = tet_dihedral_quality(p);
+            if (q - 0.5).abs() > 1e-9 {
+                assert_eq!(tet_dihedral_quality_below(p, cl, ch), q < 0.5, "quality {q}");
+                seen[(q < 0.5) as usize] += 1;
+            }
+        }
+        assert!(seen[0] > 0 && seen[1] > 0, "both sides sampled: {seen:?}");
     }
 }

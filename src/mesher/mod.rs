@@ -5,19 +5,18 @@ mod classic2d;
 pub mod image;
 mod input;
 mod internal;
-mod local3d;
 pub mod metric;
-mod options3;
 mod planar;
-mod report3;
 mod sharp;
 mod truss;
+mod volume;
 
+pub use crate::quality::tet_circumradius as circumradius;
 pub use metric::{Metric2, Metric3, MetricFn2, MetricGrid2, MetricStats};
-pub use options3::{Options3, SizeFn3};
 pub use planar::options::{Options2, ProgressFn, SizeFn2, Strategy};
 pub use planar::report::{area, boundary_deviation, size_deviation, QualityStats, Report};
-pub use report3::{boundary_deviation_3d, circumradius, size_deviation_3d, QualityStats3, Report3};
+pub use volume::options::{Options3, SizeFn3};
+pub use volume::report::{boundary_deviation_3d, size_deviation_3d, QualityStats3, Report3};
 
 use crate::geometry::{Implicit2, Implicit3};
 use crate::topology::{TetMesh, TriMesh};
@@ -51,7 +50,7 @@ pub struct MeshOutput3 {
 /// assert!(out.report.quality.dihedral_min > 5.0);
 /// ```
 pub fn mesh_3d(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, crate::Error> {
-    local3d::run(domain, opts)
+    volume::run(domain, opts)
 }
 
 /// Meshes {d < 0} in 2-D.

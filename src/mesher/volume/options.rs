@@ -4,7 +4,7 @@ use crate::geometry::project::Projection;
 use glam::DVec3;
 use std::sync::Arc;
 
-use super::ProgressFn;
+use crate::mesher::ProgressFn;
 
 /// A relative size function h(x) in 3-D (only ratios matter; h0 sets the scale).
 pub type SizeFn3 = Arc<dyn Fn(DVec3) -> f64 + Send + Sync>;

@@ -134,19 +134,12 @@ pub fn size_deviation_3d(m: &TetMesh, h: &dyn Fn(DVec3) -> f64) -> f64 {
     let mut v = Vec::with_capacity(m.num_tets());
     for t in m.tet_ids() {
         let p = m.tet_points(t);
-        v.push(circumradius(p) / h((p[0] + p[1] + p[2] + p[3]) / 4.0));
+        v.push(crate::quality::tet_circumradius(p) / h((p[0] + p[1] + p[2] + p[3]) / 4.0));
     }
     let n = v.len().max(1) as f64;
     let mean = v.iter().sum::<f64>() / n;
     let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
     var.sqrt() / mean
-}
-
-/// Circumradius of a tetrahedron (infinite when flat).
-pub fn circumradius(p: [DVec3; 4]) -> f64 {
-    let (a, b, c) = (p[1] - p[0], p[2] - p[0], p[3] - p[0]);
-    let num = a.length_squared() * b.cross(c) + b.length_squared() * c.cross(a) + c.length_squared() * a.cross(b);
-    num.length() / (2.0 * a.dot(b.cross(c)).abs())
 }
 
 /// Largest |d| / |grad d| over boundary vertices: how far the boundary nodes are from d = 0.

@@ -1,0 +1,227 @@
+//! The boundary: surface edge flips, edge removal by ring triangulation, and boundary nodes
+//! brought onto d = 0.
+
+use super::density::edge_index;
+use super::improve::try_swaps;
+use super::smoothing::smooth_vertex;
+use super::Ctx;
+use crate::predicates::{orient3d, Sign};
+use crate::quality::tet_dihedral_quality;
+use crate::topology::{TVertexId, TetId, TetMesh, TetPatch, VertexTag, EDGE_VERTICES};
+use crate::Error;
+use glam::DVec3;
+use smallvec::SmallVec;
+use std::collections::HashMap;
+
+/// Boundary edges whose two boundary triangles fail the planar Delaunay test (opposite angles
+/// summing past 180 degrees) are flipped when the tets allow it; returns the count.
+pub(super) fn surface_flips(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
+    let mut faces: HashMap<(TVertexId, TVertexId), TVertexId> = HashMap::new();
+    let bfaces = m.boundary_faces();
+    for &(t, f) in &bfaces {
+        let v = m.face_vertices(t, f);
+        for k in 0..3 {
+            faces.insert((v[k], v[(k + 1) % 3]), v[(k + 2) % 3]);
+        }
+    }
+    let mut cands: Vec<(f64, TVertexId, TVertexId)> = Vec::new();
+    for (&(a, b), &c) in &faces {
+        if a > b {
+            continue;
+        }
+        let Some(&d) = faces.get(&(b, a)) else { continue };
+        let (pa, pb, pc, pd) = (m.pos(a), m.pos(b), m.pos(c), m.pos(d));
+        let ang = |x: DVec3, y: DVec3, z: DVec3| (y - x).angle_between(z - x);
+        let s = ang(pc, pa, pb) + ang(pd, pa, pb);
+        if s > std::f64::consts::PI + 1e-3 {
+            cands.push((s, a, b));
+        }
+    }
+    cands.sort_by(|x, y| y.0.total_cmp(&x.0).then((x.1, x.2).cmp(&(y.1, y.2))));
+    let mut n = 0;
+    for (_, a, b) in cands {
+        let Some(s) = m.edge_shell_of(a, b) else { continue };
+        if s.closed {
+            continue;
+        }
+        if let Some((plan, q)) = ring_patch(ctx, m, &s, true)? {
+            if q > 0.05 {
+                m.apply_patch(plan);
+                n += 1;
+            }
+        }
+    }
+    ctx.report.flips += n;
+    Ok(n)
+}
+
+/// Removal of the edge of shell `s` (interior or, with `allow_boundary`, boundary): the ring
+/// polygon is triangulated by dynamic programming maximising the worst
+/// [`tet_dihedral_quality`] (Shewchuk's edge removal); each ring triangle makes one tet with
+/// each end. For a boundary edge the ring is open, its two ends become the new boundary edge,
+/// which must stay near d = 0 (the flip may not cut across a sharp edge of the domain).
+/// Returns the patch and its worst tq.
+#[allow(clippy::needless_range_loop)]
+pub(super) fn ring_patch(
+    ctx: &Ctx,
+    m: &TetMesh,
+    s: &crate::topology::EdgeShell,
+    allow_boundary: bool,
+) -> Result<Option<(TetPatch, f64)>, Error> {
+    let n = s.ring.len();
+    if !(3..=12).contains(&n) || (!s.closed && !allow_boundary) {
+        return Ok(None);
+    }
+    let label = m.tet(s.tets[0]).label;
+    if s.tets.iter().any(|&t| m.tet(t).label != label) {
+        return Ok(None);
+    }
+    if !s.closed {
+        let (p0, pn) = (m.pos(s.ring[0]), m.pos(s.ring[n - 1]));
+        let dn = ctx.approx_dist((p0 + pn) * 0.5)?.abs();
+        let dold = ctx.approx_dist((m.pos(s.a) + m.pos(s.b)) * 0.5)?.abs();
+        if dn > 2.0 * dold + 0.02 * p0.distance(pn) {
+            return Ok(None);
+        }
+    }
+    let (pa, pb) = (m.pos(s.a), m.pos(s.b));
+    let pc: SmallVec<[DVec3; 12]> = s.ring.iter().map(|&c| m.pos(c)).collect();
+    let tri_q = |i: usize, j: usize, k: usize| -> f64 {
+        let (ci, cj, ck) = (pc[i], pc[j], pc[k]);
+        if orient3d(pa, ci, cj, ck) != Sign::Positive || orient3d(ci, cj, ck, pb) != Sign::Positive {
+            return -1.0;
+        }
+        tet_dihedral_quality([pa, ci, cj, ck]).min(tet_dihedral_quality([ci, cj, ck, pb]))
+    };
+    let (worst, choice) = crate::topology::tet_ops::best_ring_triangulation(n, tri_q);
+    if worst < 0.0 {
+        return Ok(None);
+    }
+    let (new, mut diagonals) = crate::topology::tet_ops::ring_tets(s.a, s.b, &s.ring, &choice, label);
+    if !s.closed {
+        diagonals.push((0, n - 1));
+    }
+    for &(i, j) in &diagonals {
+        let ring_edge = s.closed && ((j + 1) % n == i || (i + 1) % n == j);
+        if !ring_edge && m.find_edge(s.ring[i], s.ring[j]).is_some() {
+            return Ok(None);
+        }
+    }
+    if n == 3 && s.closed && m.has_face(s.ring[0], s.ring[1], s.ring[2]) {
+        return Ok(None);
+    }
+    Ok(Some((TetPatch::raw(s.tets.iter().copied().collect(), new, None), worst)))
+}
+
+/// Every boundary node onto d = 0 where the tets allow it (checked moves).
+pub(super) fn settle_boundary(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
+    let vs: Vec<TVertexId> = m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Boundary).collect();
+    for v in vs {
+        if !m.contains_vertex(v) {
+            continue;
+        }
+        let p = m.pos(v);
+        if ctx.trace && ctx.approx_dist(p)?.abs() > 1e-3 * ctx.opts.h0 {
+            let q = ctx.project(p)?;
+            eprintln!(
+                "settle: off vertex at {p:?}, d {:.4}, projection {q:?}, relocate ok {:?}",
+                ctx.approx_dist(p)?,
+                q.map(|q| m.check_relocate(v, q))
+            );
+        }
+        if let Some(q) = ctx.project(p)? {
+            if q != p
+                && m.relocate(v, q).is_err()
+                && !clear_the_way(ctx, m, v, q)?
+                && !merge_into_boundary_neighbour(ctx, m, v)?
+            {
+                // Part of the way at least.
+                for f in [0.5, 0.75, 0.9] {
+                    if m.relocate(v, p.lerp(q, f)).is_ok() {
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The tets that would invert with `v` at `q` are swapped away or their other vertices
+/// smoothed, a few rounds, until `v` can move to `q`.
+pub(super) fn clear_the_way(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId, q: DVec3) -> Result<bool, Error> {
+    for _ in 0..4 {
+        let blocking: Vec<TetId> = m
+            .vertex_tets(v)
+            .into_iter()
+            .filter(|&t| {
+                let p = m.tet(t).v.map(|w| if w == v { q } else { m.pos(w) });
+                orient3d(p[0], p[1], p[2], p[3]) != Sign::Positive
+            })
+            .collect();
+        if blocking.is_empty() {
+            break;
+        }
+        for t in blocking {
+            if !m.contains_tet(t) {
+                continue;
+            }
+            let nb = m.tet(t).adj.iter().filter(|a| a.is_none()).count();
+            if nb >= 2 && m.remove_boundary_tet(t).is_ok() {
+                ctx.report.removed += 1;
+                continue;
+            }
+            if try_swaps(ctx, m, t)? {
+                continue;
+            }
+            for w in m.tet(t).v {
+                if w != v {
+                    smooth_vertex(ctx, m, w)?;
+                }
+            }
+        }
+        if !m.contains_vertex(v) {
+            return Ok(true);
+        }
+        if m.relocate(v, q).is_ok() {
+            return Ok(true);
+        }
+    }
+    Ok(m.contains_vertex(v) && m.relocate(v, q).is_ok())
+}
+
+/// A boundary node that cannot reach d = 0 is collapsed along a boundary edge into the
+/// neighbour that leaves the best worst radius ratio (seed: such nodes are crowded ones).
+fn merge_into_boundary_neighbour(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, Error> {
+    let mut best: Option<(f64, TetPatch)> = None;
+    for w in m.vertex_neighbours(v) {
+        if !matches!(m.tag(w), VertexTag::Boundary | VertexTag::Fixed) {
+            continue;
+        }
+        let Some(t) = m.find_edge(v, w) else { continue };
+        let e = edge_index(m, t, v, w);
+        let reverse = m.tet(t).v[EDGE_VERTICES[e][0]] != v;
+        if let Ok(plan) = m.check_collapse(t, e, reverse, m.pos(w)) {
+            if plan.min_quality > 0.0 && best.as_ref().map_or(true, |b| plan.min_quality > b.0) {
+                best = Some((plan.min_quality, plan));
+            }
+        }
+    }
+    if let Some((_, plan)) = best {
+        m.apply_patch(plan);
+        ctx.report.collapses += 1;
+        return Ok(true);
+    }
+    Ok(false)
+}
+
+pub(super) fn count_off(ctx: &Ctx, m: &TetMesh) -> Result<usize, Error> {
+    let tol = 1e-3 * ctx.opts.h0;
+    let mut n = 0;
+    for v in m.vertex_ids() {
+        if matches!(m.tag(v), VertexTag::Boundary) && ctx.approx_dist(m.pos(v))?.abs() > tol {
+            n += 1;
+        }
+    }
+    Ok(n)
+}

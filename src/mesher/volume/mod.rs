@@ -1,0 +1,187 @@
+//! The 3-D mesher on the tetrahedral engine (seed chapters 2 and 3, and the seed's own list of
+//! future work: swaps inside the iteration instead of a global retriangulation).
+//!
+//! 1. Start ([`start`]): a body-centred cubic lattice over the box (well-shaped Delaunay tets),
+//!    thinned by the size function as in the seed (keep with probability (h_min / h)^3), points
+//!    with d < 0 (moved off the lattice by 1e-6 of its side, see `start::jitter`), points
+//!    projected onto d = 0 and points on sharp edges and corners ([`features`]), Delaunay through
+//!    the engine, tets with centroid outside carved away, pinched vertices and edges repaired.
+//! 2. Force equilibrium ([`equilibrium`](mod@equilibrium)): repulsive bars f = max(L0 - L, 0)
+//!    (seed eq. 2.6 with the cube root), forward Euler on compact arrays ([`snapshot`]),
+//!    boundary nodes projected onto d = 0 every step, step control so that no tet inverts (exact
+//!    orient3d), Lawson flips (exact insphere) around nodes that moved, surface edge flips
+//!    ([`boundary`]), density control (splits and collapses, [`density`]), tets squashed
+//!    against the boundary removed (one at a time, or carved together when they are stuck,
+//!    [`carve`]).
+//! 3. Sliver removal ([`improve`](mod@improve)): the worst tets (by dihedral angles) are attacked
+//!    by swaps (edge removal with an optimal ring triangulation, Shewchuk 2002; 2-3 flips;
+//!    boundary edge flips), by optimisation-based smoothing of their vertices (maximise the
+//!    worst quality in the star, Freitag and Ollivier-Gooch 1997, [`smoothing`]), then by small
+//!    random perturbations (Tournois et al. 2009), each accepted only when the local worst
+//!    quality improves.
+//! 4. Mean quality: edge removals and 2-3 flips around the tets well below the mean that raise
+//!    the mean radius ratio, and every vertex moved uphill on its star's summed radius ratio
+//!    (by independent classes, in parallel), each keeping the local worst dihedral quality at
+//!    least min(old, RR_TQ_FLOOR).
+//!
+//! "tq" in these files is the dihedral quality, [`tet_dihedral_quality`]: 1 for the regular
+//! tet, 0 when a dihedral angle reaches 0 or 180 degrees.
+//!
+//! Set `TRUSSMESH_TRACE=1` to print the state every ten iterations.
+
+mod boundary;
+mod carve;
+mod density;
+mod equilibrium;
+mod features;
+mod improve;
+pub(super) mod options;
+pub(super) mod report;
+mod smoothing;
+mod snapshot;
+mod start;
+#[cfg(test)]
+mod tests;
+
+use crate::geometry::project::{project3, ProjectError, Projection};
+use crate::geometry::Implicit3;
+use crate::mesher::MeshOutput3;
+use crate::quality::tet_dihedral_quality;
+use crate::topology::{Level, TetId};
+use crate::Error;
+use boundary::{count_off, settle_boundary};
+use carve::drop_specks;
+use equilibrium::{equilibrium, repeat_rounds};
+use glam::DVec3;
+use improve::{improve, mean_quality_round};
+use options::Options3;
+use report::{QualityStats3, Report3};
+use start::{eval_d, eval_h_floor, initial_mesh, splitmix_unit, survey};
+use std::time::Instant;
+
+/// Tets whose centroid is within GEPS h0 h of d = 0 are dropped from the boundary (seed: 0.1).
+const GEPS: f64 = 0.1;
+/// Smoothing and perturbation may lower the star's mean radius ratio by at most this.
+const RR_SLACK: f64 = 0.01;
+/// Rounds of the final mean-quality pass (swaps and smoothing aimed at the mean radius ratio).
+const RR_ROUNDS: usize = 4;
+/// The mean-quality pass stops after a round that raised the mean radius ratio by less than
+/// this. A second round gains about a tenth of the first: on the unit ball at h0 = 0.15,
+/// 8e-3 then 8e-4; at h0 = 0.033 (10^6 tets) 3.0e-3 then 3e-4, at 2.9 s each.
+const RR_ROUND_GAIN: f64 = 5e-3;
+/// The mean-quality pass keeps every local worst dihedral quality at least min(old, this).
+const RR_TQ_FLOOR: f64 = 0.55;
+/// Chunk size of the deterministic parallel loops.
+const CHUNK: usize = 4096;
+
+struct Ctx<'a> {
+    domain: &'a dyn Implicit3,
+    opts: &'a Options3,
+    projection: Projection,
+    h_floor: f64,
+    report: Report3,
+    rng: u64,
+    trace: bool,
+    /// The worst tq at the start of the last polish round.
+    polish_worst: f64,
+    /// The fixed points: the user's, then the points the start put on sharp edges.
+    fixed: Vec<DVec3>,
+}
+
+impl Ctx<'_> {
+    /// Relative size normalised so that the smallest size inside is 1 (edge length h0).
+    fn h(&self, p: DVec3) -> Result<f64, Error> {
+        Ok(eval_h_floor(self.opts, p, self.h_floor)? / self.h_floor)
+    }
+    fn d(&self, p: DVec3) -> Result<f64, Error> {
+        eval_d(self.domain, p)
+    }
+    /// Projects onto d = 0; `Ok(None)` when the projection does not converge.
+    fn project(&self, p: DVec3) -> Result<Option<DVec3>, Error> {
+        match project3(self.domain, p, self.projection, 1e-9 * self.opts.h0, 20) {
+            Ok(q) => Ok(Some(q)),
+            Err(ProjectError::NonFinite { value }) => {
+                Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, p.z] })
+            }
+            Err(_) => Ok(None),
+        }
+    }
+    /// Approximate distance: d itself for distances, d / |grad d| otherwise.
+    fn approx_dist(&self, p: DVec3) -> Result<f64, Error> {
+        let d = self.d(p)?;
+        if self.domain.is_distance() {
+            Ok(d)
+        } else {
+            let g = self.domain.gradient(p).length();
+            Ok(if g > 0.0 && g.is_finite() { d / g } else { d })
+        }
+    }
+    /// SplitMix64 on the options' seed: the only randomness, so runs repeat bit for bit.
+    fn next_f64(&mut self) -> f64 {
+        self.rng = self.rng.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        splitmix_unit(self.rng)
+    }
+}
+
+pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, Error> {
+    let t0 = Instant::now();
+    let survey = survey(domain, opts)?;
+    let projection = match opts.projection {
+        Projection::Auto if domain.is_distance() => Projection::Exact,
+        Projection::Auto => Projection::FirstOrder,
+        p => p,
+    };
+    let mut ctx = Ctx {
+        domain,
+        opts,
+        projection,
+        h_floor: survey.h_floor,
+        report: Report3::default(),
+        rng: opts.seed ^ 0x7472_7573_736d_6533,
+        trace: std::env::var_os("TRUSSMESH_TRACE").is_some(),
+        polish_worst: f64::NEG_INFINITY,
+        fixed: opts.fixed.clone(),
+    };
+    let mut mesh = initial_mesh(&mut ctx, survey.estimated_tets)?;
+    if ctx.trace {
+        eprintln!(
+            "start: {} vertices, {} tets, {:.2} s",
+            mesh.num_vertices(),
+            mesh.num_tets(),
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    equilibrium(&mut ctx, &mut mesh)?;
+    settle_boundary(&mut ctx, &mut mesh)?;
+    if ctx.trace {
+        eprintln!("equilibrium done at {:.2} s", t0.elapsed().as_secs_f64());
+    }
+    repeat_rounds(&mut ctx, &mut mesh, opts.polish_rounds, "polish", None, improve)?;
+    repeat_rounds(&mut ctx, &mut mesh, RR_ROUNDS, "mean quality", Some(RR_ROUND_GAIN), |c, m, _| {
+        mean_quality_round(c, m)
+    })?;
+    if ctx.trace {
+        let mut w: Vec<(f64, TetId)> = mesh.tet_ids().map(|t| (tet_dihedral_quality(mesh.tet_points(t)), t)).collect();
+        w.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for &(q, t) in w.iter().take(6) {
+            let tx = mesh.tet(t);
+            let nb = tx.adj.iter().filter(|a| a.is_none()).count();
+            let tags: Vec<String> =
+                tx.v.iter()
+                    .map(|&v| format!("{:?}@{:.3}", mesh.tag(v), ctx.approx_dist(mesh.pos(v)).unwrap_or(0.0)))
+                    .collect();
+            eprintln!("worst tq {q:.3}: {nb} boundary faces, {:?} {:?}", tags, mesh.tet_points(t)[0]);
+        }
+    }
+    if drop_specks(&ctx, &mut mesh)? && ctx.trace {
+        eprintln!("specks dropped");
+    }
+    ctx.report.boundary_nodes_off = count_off(&ctx, &mesh)?;
+    if let Err(e) = mesh.validate(Level::Geometry) {
+        return Err(Error::Internal(format!("the finished mesh is invalid: {e}")));
+    }
+    let mut report = ctx.report;
+    report.seconds = t0.elapsed().as_secs_f64();
+    report.quality = QualityStats3::of(&mesh);
+    Ok(MeshOutput3 { mesh, report })
+}

@@ -1,0 +1,174 @@
+//! Unit tests of the 3-D mesher: the star radius-ratio sum, the snapshot's refresh against a
+//! rebuild, and the removal of specks.
+
+use super::carve::{count_pieces, drop_specks};
+use super::options::Options3;
+use super::report::Report3;
+use super::smoothing::{star_rr_sum, StarRr};
+use super::snapshot::{Snapshot, DEAD};
+use super::Ctx;
+use crate::geometry::project::Projection;
+use crate::topology::{Level, TVertexId, TetId, TetMesh, EDGE_VERTICES};
+use glam::DVec3;
+
+#[test]
+fn star_rr_sums_the_radius_ratios() {
+    let mut rng = crate::testing::Rng::new(crate::testing::SEED);
+    for _ in 0..200 {
+        let star: Vec<([DVec3; 4], usize)> =
+            (0..5).map(|k| ([0; 4].map(|_| DVec3::new(rng.f64(), rng.f64(), rng.f64())), k % 4)).collect();
+        let x = DVec3::new(rng.f64(), rng.f64(), rng.f64());
+        let (fast, slow) = (StarRr::new(&star).sum(x), star_rr_sum(&star, x));
+        assert!((fast - slow).abs() < 1e-9, "{fast} against {slow}");
+    }
+}
+
+/// A snapshot in vertex keys: (vertex, kind, sorted neighbours) and (tet, corners).
+type Keyed = (Vec<(TVertexId, u8, Vec<TVertexId>)>, Vec<(TetId, [TVertexId; 4])>);
+
+/// The snapshot in vertex keys, for comparing snapshots whose indices differ.
+fn by_key(s: &Snapshot) -> Keyed {
+    let mut verts: Vec<(TVertexId, u8, Vec<TVertexId>)> = (0..s.ids.len())
+        .filter(|&i| s.kind[i] != DEAD)
+        .map(|i| {
+            let mut nb: Vec<TVertexId> =
+                s.row(i).iter().filter(|&&j| j as usize != i).map(|&j| s.ids[j as usize]).collect();
+            nb.sort_unstable();
+            (s.ids[i], s.kind[i], nb)
+        })
+        .collect();
+    verts.sort_unstable_by_key(|x| x.0);
+    let tets = s.tet_ids.iter().zip(&s.tets).map(|(&t, v)| (t, v.map(|i| s.ids[i as usize]))).collect();
+    (verts, tets)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::test_runner::Config {
+        cases: 64,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(crate::testing::SEED),
+        ..proptest::test_runner::Config::default()
+    })]
+
+    /// Random operation sequences (flips, edge removals, splits, collapses, insertions,
+    /// moves), the snapshot refreshed after every few: it always says what a rebuild says.
+    #[test]
+    fn refreshes_after_random_operations_equal_rebuilds(
+        n in 8usize..40,
+        seed in proptest::prelude::any::<u64>(),
+        bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..400),
+        every in 1usize..6,
+    ) {
+        let (mut m, _) = TetMesh::delaunay(&crate::testing::random_points_3d(n, seed)).expect("delaunay");
+        m.tag_boundary_vertices();
+        let mut snap = Snapshot::build(&m);
+        m.open_journal();
+        let mut u = arbitrary::Unstructured::new(&bytes);
+        let mut k = 0;
+        // (An exhausted input still yields default operations: stop on it.)
+        while !u.is_empty() && k < 64 {
+            let Ok(op) = u.arbitrary::<crate::testing::TetOp>() else { break };
+            let _ = crate::testing::apply_tet_op(&mut m, op);
+            k += 1;
+            if k % every == 0 {
+                let journal = m.take_journal().expect("open journal");
+                if !snap.refresh(&m, &journal) {
+                    snap = Snapshot::build(&m);
+                }
+                proptest::prop_assert_eq!(by_key(&snap), by_key(&Snapshot::build(&m)));
+                m.open_journal();
+            }
+        }
+    }
+}
+
+#[test]
+fn a_cut_off_speck_is_dropped_and_the_rest_kept() {
+    let mut rng = crate::testing::Rng::new(crate::testing::SEED);
+    let mut pts: Vec<DVec3> = (0..200).map(|_| DVec3::new(rng.f64(), rng.f64(), rng.f64())).collect();
+    let (del, _) = TetMesh::delaunay(&pts).expect("delaunay");
+    let (points, mut tets, _, _) = del.to_arrays();
+    pts = points;
+    // A flat tet away from the rest, cut off from it.
+    let n = pts.len();
+    pts.extend([[3.0, 0.0, 0.0], [4.0, 0.0, 0.0], [3.0, 1.0, 0.0], [3.2, 0.2, 1e-3]].map(DVec3::from));
+    tets.push([n, n + 1, n + 2, n + 3]);
+    let (mut m, _) = TetMesh::from_arrays(&pts, &tets).expect("valid");
+    m.tag_boundary_vertices();
+    let domain = crate::geometry::Ball::new([0.0, 0.0, 0.0], 10.0);
+    let opts = Options3::uniform(0.1, [-1.0; 3], [5.0; 3]);
+    let ctx = Ctx {
+        domain: &domain,
+        opts: &opts,
+        projection: Projection::Exact,
+        h_floor: 1.0,
+        report: Report3::default(),
+        rng: 1,
+        trace: false,
+        polish_worst: 0.0,
+        fixed: Vec::new(),
+    };
+    let before = m.num_tets();
+    assert_eq!(count_pieces(&m), 2);
+    assert!(drop_specks(&ctx, &mut m).expect("no error"));
+    assert_eq!((count_pieces(&m), m.num_tets(), m.num_vertices()), (1, before - 1, n));
+    m.validate(Level::Geometry).expect("valid");
+    // Nothing left to drop.
+    assert!(!drop_specks(&ctx, &mut m).expect("no error"));
+}
+
+#[test]
+fn a_refreshed_snapshot_equals_a_rebuilt_one() {
+    let mut rng = crate::testing::Rng::new(crate::testing::SEED);
+    let pts: Vec<DVec3> = (0..400).map(|_| DVec3::new(rng.f64(), rng.f64(), rng.f64())).collect();
+    let (mut m, _) = TetMesh::delaunay(&pts).expect("delaunay");
+    m.tag_boundary_vertices();
+    let mut snap = Snapshot::build(&m);
+    m.open_journal();
+    // Tets taken off the boundary (which retag vertices) and 2-3 flips (each adds an edge).
+    let (mut flips, mut removed) = (0, 0);
+    let ids: Vec<TetId> = m.tet_ids().collect();
+    for &t in &ids {
+        if removed < 5 && m.check_remove_boundary_tet(t).is_ok_and(|f| f <= 2) {
+            removed += usize::from(m.remove_boundary_tet(t).is_ok());
+        }
+    }
+    for &t in &ids {
+        if m.contains_tet(t) && (0..4).any(|i| m.flip23(t, i).is_ok()) {
+            flips += 1;
+        }
+        if flips >= 40 {
+            break;
+        }
+    }
+    assert!(flips >= 40 && removed > 0, "{flips} flips, {removed} removals");
+    let journal = m.take_journal().expect("open journal");
+    assert!(!journal.vertices_changed);
+    assert!(snap.refresh(&m, &journal));
+    let fresh = Snapshot::build(&m);
+    // Without a vertex added or removed, the indices are the rebuild's too.
+    assert_eq!(snap.ids, fresh.ids);
+    assert_eq!(snap.tets, fresh.tets);
+    assert_eq!(by_key(&snap), by_key(&fresh));
+    // Splits add vertices and collapses remove them: the journal says so, the refresh
+    // appends and buries entries, and the snapshot still says what a rebuild says.
+    m.open_journal();
+    let (mut splits, mut collapses) = (0, 0);
+    let ids: Vec<TetId> = m.tet_ids().collect();
+    for (k, &t) in ids.iter().enumerate() {
+        if !m.contains_tet(t) {
+            continue;
+        }
+        let [a, b] = EDGE_VERTICES[k % 6].map(|i| m.pos(m.tet(t).v[i]));
+        if k % 3 == 0 && splits < 10 {
+            splits += usize::from(m.split_edge(t, k % 6, (a + b) * 0.5).is_ok());
+        } else if k % 3 == 1 && collapses < 10 {
+            collapses += usize::from(m.collapse(t, k % 6, false, b).is_ok());
+        }
+    }
+    assert!(splits == 10 && collapses > 0, "{splits} splits, {collapses} collapses");
+    let journal = m.take_journal().expect("open journal");
+    assert!(journal.vertices_changed);
+    assert!(snap.refresh(&m, &journal));
+    m.validate(Level::Geometry).expect("valid");
+    assert_eq!(by_key(&snap), by_key(&Snapshot::build(&m)));
+}
