@@ -1,5 +1,6 @@
 //! The crate's error type: bad input names the value and where it came from.
 
+use crate::topology::InvariantViolation;
 use thiserror::Error;
 
 /// Everything that can go wrong at the library's boundary.
@@ -64,7 +65,25 @@ pub enum Error {
     /// Any other invalid option.
     #[error("invalid input: {0}")]
     Invalid(String),
-    /// A broken internal invariant: a bug in trussmesh; please report it.
-    #[error("internal error (please report): {0}")]
-    Internal(String),
+    /// A broken internal invariant: a bug in trussmesh; please report it. `violation` is the
+    /// mesh invariant that broke, when a validation found it.
+    #[error("internal error (please report): {message}")]
+    Internal {
+        /// What was being done and what went wrong.
+        message: String,
+        /// The broken mesh invariant, when a validation found it.
+        violation: Option<InvariantViolation>,
+    },
+}
+
+impl Error {
+    /// An internal error without a mesh invariant behind it.
+    pub fn internal(message: impl Into<String>) -> Self {
+        Error::Internal { message: message.into(), violation: None }
+    }
+
+    /// An internal error: validating the mesh after `context` found `violation` broken.
+    pub fn broken(context: &str, violation: InvariantViolation) -> Self {
+        Error::Internal { message: format!("{context}: {violation}"), violation: Some(violation) }
+    }
 }

@@ -36,7 +36,7 @@ impl Failure {
 impl From<trussmesh::Error> for Failure {
     fn from(e: trussmesh::Error) -> Self {
         match e {
-            trussmesh::Error::Internal(_) => Failure::internal(e.to_string()),
+            trussmesh::Error::Internal { .. } => Failure::internal(e.to_string()),
             _ => Failure::bad(e.to_string()),
         }
     }

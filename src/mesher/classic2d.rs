@@ -18,7 +18,7 @@ const TTOL: f64 = 0.1;
 fn triangulate(domain: &dyn Implicit2, p: &[DVec2], geps: f64) -> Result<Vec<[usize; 3]>, Error> {
     let pts: Vec<Point2<f64>> = p.iter().map(|q| Point2::new(q.x, q.y)).collect();
     let t = DelaunayTriangulation::<Point2<f64>>::bulk_load_stable(pts)
-        .map_err(|e| Error::Internal(format!("spade: {e:?}")))?;
+        .map_err(|e| Error::internal(format!("spade: {e:?}")))?;
     let mut tris = Vec::with_capacity(t.num_inner_faces());
     for f in t.inner_faces() {
         let [a, b, c] = f.vertices().map(|v| v.fix().index());
@@ -171,7 +171,7 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
     }
     let tri: Vec<[usize; 3]> = tris.iter().map(|t| [map[t[0]], map[t[1]], map[t[2]]]).collect();
     let (mut mesh, ids) =
-        TriMesh::from_arrays(&pts, &tri).map_err(|e| Error::Internal(format!("classic result: {e}")))?;
+        TriMesh::from_arrays(&pts, &tri).map_err(|e| Error::internal(format!("classic result: {e}")))?;
     for v in ids {
         if mesh.is_boundary_vertex(v) {
             mesh.set_tag(v, VertexTag::Boundary);

@@ -309,7 +309,7 @@ impl TriMesh<DVec2> {
         // and flips, so its size only affects how many repairs that takes.
         let big = 1e4 * r;
         let s = [c + DVec2::new(-big, -big), c + DVec2::new(big, -big), c + DVec2::new(0.0, big)];
-        let (mut m, sid) = TriMesh::from_arrays(&s, &[[0, 1, 2]]).map_err(|e| crate::Error::Internal(e.to_string()))?;
+        let (mut m, sid) = TriMesh::from_arrays(&s, &[[0, 1, 2]]).map_err(|e| crate::Error::internal(e.to_string()))?;
         m.vertices.reserve(points.len());
         m.half_edges.reserve(6 * points.len());
         m.faces.reserve(2 * points.len());
@@ -323,7 +323,7 @@ impl TriMesh<DVec2> {
         for &p in &sorted {
             let (v, f) = m
                 .insert_delaunay_with(p, hint, &mut stack)
-                .ok_or_else(|| crate::Error::Internal("point outside the enclosing triangle".into()))?;
+                .ok_or_else(|| crate::Error::internal("point outside the enclosing triangle"))?;
             inserted.push(v);
             hint = f;
         }
@@ -390,7 +390,7 @@ impl TriMesh<DVec2> {
         for &h in &boundary {
             let v = self.origin(h);
             if seen.insert(v, ()).is_some() {
-                return Err(crate::Error::Internal("non-manifold hull after removing the enclosing triangle".into()));
+                return Err(crate::Error::internal("non-manifold hull after removing the enclosing triangle"));
             }
             self.vertices[v].out = h;
         }

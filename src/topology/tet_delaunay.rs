@@ -30,7 +30,7 @@ fn fresh_key<K: From<KeyData>>(i: u32) -> K {
 }
 
 fn keys_out_of_order() -> crate::Error {
-    crate::Error::Internal("the slot map did not hand out keys in insertion order (its key layout changed)".into())
+    crate::Error::internal("the slot map did not hand out keys in insertion order (its key layout changed)")
 }
 
 /// Indices of `points` in a biased randomized insertion order (BRIO, Amenta, Choi and Rote

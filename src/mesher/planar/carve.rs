@@ -106,7 +106,7 @@ pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Resu
     }
     let (labels, tri): (Vec<u32>, Vec<[usize; 3]>) = tri.into_iter().map(|(t, l)| (l, t)).unzip();
     let (mut out, ids) =
-        TriMesh::from_arrays(&pts, &tri).map_err(|e| Error::Internal(format!("carving the initial mesh: {e}")))?;
+        TriMesh::from_arrays(&pts, &tri).map_err(|e| Error::internal(format!("carving the initial mesh: {e}")))?;
     // from_arrays creates the faces in triangle order: labels (subdomains) carry over.
     let faces: Vec<crate::topology::FaceId> = out.face_ids().collect();
     for (f, l) in faces.into_iter().zip(labels) {

@@ -366,7 +366,7 @@ pub(crate) fn run_moving(
         internal::label_subdomains(&mut mesh);
     }
     if let Err(e) = mesh.validate(Level::Geometry) {
-        return Err(Error::Internal(format!("the finished mesh is invalid: {e}")));
+        return Err(Error::broken("the finished mesh is invalid", e));
     }
     let mut report = ctx.report;
     report.seconds = t0.elapsed().as_secs_f64();

@@ -48,7 +48,7 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2
             0.0,
         );
     }
-    let (mut m, _) = TriMesh::from_arrays(&s, &[[0, 1, 2]]).map_err(|e| Error::Internal(e.to_string()))?;
+    let (mut m, _) = TriMesh::from_arrays(&s, &[[0, 1, 2]]).map_err(|e| Error::internal(e.to_string()))?;
     // Rounds of red refinement: every edge longer than its target (and not certainly
     // outside) is split at its midpoint, then Lawson flips restore Delaunay. On a uniform
     // region the midpoints of one lattice level are exactly the next level's lattice.
@@ -78,7 +78,7 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2
         let stack = star_edges(&m, &new);
         ctx.legalize(&mut m, stack);
         if m.num_vertices() > cap {
-            return Err(Error::Internal(format!(
+            return Err(Error::internal(format!(
                 "initial refinement passed {cap} vertices (estimate {estimate:.0} triangles)"
             )));
         }
@@ -119,7 +119,7 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2
         }
         let (v, f) = m
             .insert_delaunay(*p, hint)
-            .ok_or_else(|| Error::Internal("fixed point outside the enclosing triangle".into()))?;
+            .ok_or_else(|| Error::internal("fixed point outside the enclosing triangle"))?;
         m.set_tag(v, VertexTag::Fixed);
         hint = f;
     }
@@ -233,7 +233,7 @@ pub(super) fn refine_uniform(ctx: &Ctx, corners: &[DVec2], cap: usize) -> Result
         }
         tris = next;
         if pts.len() > cap {
-            return Err(Error::Internal(format!("initial refinement passed {cap} vertices")));
+            return Err(Error::internal(format!("initial refinement passed {cap} vertices")));
         }
     }
     Ok((pts, tris))

@@ -178,7 +178,7 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
     }
     ctx.report.boundary_nodes_off = count_off(&ctx, &mesh)?;
     if let Err(e) = mesh.validate(Level::Geometry) {
-        return Err(Error::Internal(format!("the finished mesh is invalid: {e}")));
+        return Err(Error::broken("the finished mesh is invalid", e));
     }
     let mut report = ctx.report;
     report.seconds = t0.elapsed().as_secs_f64();

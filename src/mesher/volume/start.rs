@@ -393,5 +393,5 @@ pub(super) fn repair_pinches(points: &[DVec3], tets: &mut Vec<[usize; 4]>) -> Re
             !drop[k - 1]
         });
     }
-    Err(Error::Internal("the carved start mesh keeps pinched vertices".into()))
+    Err(Error::internal("the carved start mesh keeps pinched vertices"))
 }
