@@ -15,6 +15,7 @@ mod polish2d;
 mod report;
 mod report3;
 mod sharp;
+pub mod surface;
 
 pub use metric::{Metric2, Metric3, MetricFn2, MetricGrid2, MetricStats};
 pub use options::{Options2, ProgressFn, SizeFn2, Strategy};
