@@ -21,8 +21,9 @@ pub mod mesher;
 pub mod predicates;
 pub mod quality;
 pub mod size;
-pub mod surface;
 pub mod topology;
+
+pub use mesher::surface;
 
 #[doc(hidden)]
 pub mod testing;

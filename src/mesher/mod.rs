@@ -8,6 +8,7 @@ mod internal;
 pub mod metric;
 mod planar;
 mod sharp;
+pub mod surface;
 mod truss;
 mod volume;
 

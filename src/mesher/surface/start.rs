@@ -1,13 +1,17 @@
-//! The starting mesh: the zero set of phi on a background grid by marching tetrahedra (seed
+//! The start mesh: the zero set of phi on a background grid by marching tetrahedra (seed
 //! section 3.6.1 suggests triangulating the surface in each background cell and letting density
-//! control coarsen or refine it).
+//! control coarsen or refine it), made at the coarsest level of the coarse-to-fine start that
+//! still has the topology of the reference marching.
 //!
 //! Each grid cube is cut into the six Kuhn tetrahedra around its main diagonal; the cut is the
 //! same on both sides of every shared cube face, so the piecewise-linear zero set is a closed
 //! 2-manifold. Crossing points are keyed by their grid edge, so neighbouring tetrahedra weld.
 //! A node value of exactly zero counts as positive, so no crossing lies on a grid node.
 
+use super::geom::{self, project};
+use super::improve::move_if_no_fold;
 use crate::geometry::Implicit3;
+use crate::topology::{TriMesh, VertexId};
 use crate::Error;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -22,6 +26,13 @@ pub const MAX_GRID_NODES: u64 = 64_000_000;
 /// [T_CLAMP, 1 - T_CLAMP], which bounds how thin a starting triangle can be. The projection
 /// moves the points onto phi = 0 afterwards.
 const T_CLAMP: f64 = 0.02;
+
+/// Coarsest start level: the start mesh is made at up to 2^MAX_LEVELS times the target size.
+const MAX_LEVELS: u32 = 3;
+/// The largest marching grid for the reference topology (about 250^3 nodes).
+const REFERENCE_GRID_NODES: u64 = 16_000_000;
+/// Largest turn of the normal along one edge of the coarsest start mesh, radians.
+const MAX_TURN: f64 = 0.4;
 
 /// A triangle soup welded by grid edge: points and outward-oriented triangles.
 pub struct Marched {
@@ -157,4 +168,78 @@ pub fn march(phi: &dyn Implicit3, bbox: [DVec3; 2], h: f64) -> Result<Marched, E
         }
     }
     Ok(Marched { points, triangles })
+}
+
+/// Number of connected components (by shared vertices) of a triangle list over `n` points.
+pub fn components(n: usize, tris: &[[usize; 3]]) -> usize {
+    let mut sets = crate::topology::DisjointSets::new(n);
+    for t in tris {
+        sets.join(t[0], t[1]);
+        sets.join(t[0], t[2]);
+    }
+    (0..n).filter(|&i| sets.root(i) == i).count()
+}
+
+/// The start mesh for the smallest size `hmin`, its nodes projected onto phi = 0 to `tol`, and
+/// its level k: it was made at 2^k hmin, and the pipeline subdivides it k times.
+pub(super) fn start_mesh(
+    phi: &dyn Implicit3,
+    bbox: [DVec3; 2],
+    hmin: f64,
+    tol: f64,
+) -> Result<(TriMesh<DVec3>, u32), Error> {
+    // The reference marching fixes the topology; the start mesh is made at the coarsest level
+    // 2^k h with the same Euler characteristic and component count, then subdivided k times,
+    // so that the fine mesh has only the coarse mesh's irregular vertices. The reference is the
+    // finest level whose grid stays below REFERENCE_GRID_NODES: marching costs the volume of
+    // the box over h^3 while the mesh costs its area over h^2, so at h itself a large mesh
+    // would spend most of its time (and memory) on the grid.
+    let mut reference = 0;
+    while reference < MAX_LEVELS && grid_nodes(bbox, hmin * (1u32 << reference) as f64) > REFERENCE_GRID_NODES {
+        reference += 1;
+    }
+    let fine = march(phi, bbox, hmin * (1u32 << reference) as f64)?;
+    let signature = |mc: &Marched| {
+        let mut edges: Vec<(usize, usize)> = mc
+            .triangles
+            .iter()
+            .flat_map(|t| [0, 1, 2].map(|k| (t[k].min(t[(k + 1) % 3]), t[k].max(t[(k + 1) % 3]))))
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let chi = mc.points.len() as i64 - edges.len() as i64 + mc.triangles.len() as i64;
+        (chi, components(mc.points.len(), &mc.triangles))
+    };
+    let want = signature(&fine);
+    // The coarse level must still follow the surface: at most MAX_TURN radians per edge.
+    let curvatures: Vec<f64> = fine
+        .points
+        .par_iter()
+        .map(|&p| Ok(geom::max_curvature(phi, project(phi, p, tol)?).abs()))
+        .collect::<Result<_, Error>>()?;
+    let kmax = curvatures.iter().fold(0.0f64, |a, &b| a.max(b));
+    let mut levels = reference;
+    let mut marched = fine;
+    for k in (reference + 1..=MAX_LEVELS).rev() {
+        let hk = hmin * (1u32 << k) as f64;
+        if hk * kmax > MAX_TURN {
+            continue;
+        }
+        let coarse = march(phi, bbox, hk);
+        if let Ok(c) = coarse {
+            if signature(&c) == want {
+                levels = k;
+                marched = c;
+                break;
+            }
+        }
+    }
+    let (mut m, _) = TriMesh::from_arrays(&marched.points, &marched.triangles)
+        .map_err(|e| Error::internal(format!("marching tetrahedra made an invalid mesh: {e}")))?;
+    let ids: Vec<VertexId> = m.vertex_ids().collect();
+    for v in ids {
+        let p = project(phi, m.pos(v), tol)?;
+        move_if_no_fold(&mut m, phi, v, p);
+    }
+    Ok((m, levels))
 }

@@ -122,7 +122,7 @@ pub struct SurfaceReport {
     /// The iteration whose mesh was kept (the best by quality).
     pub kept_iteration: usize,
     /// Operation counts.
-    pub ops: super::ops::OpCounts,
+    pub ops: super::density::OpCounts,
     /// Length-equalising sweeps after the force iteration.
     pub equalize_sweeps: usize,
     /// Moves undone because they would fold a triangle.

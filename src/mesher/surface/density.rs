@@ -1,0 +1,236 @@
+//! Density control in space: split long edges, collapse short ones (the engine's checked split
+//! and collapse plus the surface conditions the engine cannot know: no fold against grad phi,
+//! quality), the remeshing passes that bring the start mesh to h(x), and the regular
+//! subdivision between the levels of the coarse-to-fine start.
+
+use super::geom::{faces_out, project, SizeField};
+use super::improve::{flip_pass, smooth_tangential, FlipGoal, FOLD_COS};
+use crate::geometry::Implicit3;
+use crate::quality::triangle_q3;
+use crate::topology::{HalfEdgeId, TriMesh, VertexId};
+use crate::Error;
+use glam::DVec3;
+use slotmap::SecondaryMap;
+
+/// Remeshing passes that bring the start mesh to the target density.
+pub(super) const REMESH_PASSES: usize = 12;
+/// Split above 4/3 h, collapse below 4/5 h (the remeshing hysteresis of Botsch and Kobbelt).
+const REMESH_HI: f64 = 4.0 / 3.0;
+const REMESH_LO: f64 = 0.8;
+/// Density control during the force loop: wider hysteresis so nodes do not go in and out.
+const DENSITY_HI: f64 = 1.6;
+const DENSITY_LO: f64 = 0.5;
+
+/// Counts of operations done, for the report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OpCounts {
+    /// Edge splits.
+    pub splits: usize,
+    /// Edge collapses.
+    pub collapses: usize,
+    /// Edge flips.
+    pub flips: usize,
+}
+
+/// Every edge as one half-edge and its two end vertices, in arena order: a stable list to walk
+/// while the mesh changes. [`edge_now`] finds the edge again.
+pub fn edge_list(m: &TriMesh<DVec3>) -> Vec<(HalfEdgeId, VertexId, VertexId)> {
+    m.edge_ids().map(|h| (h, m.origin(h), m.dest(h))).collect()
+}
+
+/// The half-edge a -> b of a listed edge now, or `None` if the edge is gone. The listed
+/// half-edge usually still runs a -> b (an O(1) check); otherwise a search around a.
+#[inline]
+pub fn edge_now(m: &TriMesh<DVec3>, (h, a, b): (HalfEdgeId, VertexId, VertexId)) -> Option<HalfEdgeId> {
+    if m.contains_half_edge(h) && m.origin(h) == a && m.dest(h) == b {
+        return Some(h);
+    }
+    if !m.contains_vertex(a) || !m.contains_vertex(b) {
+        return None;
+    }
+    m.find_half_edge(a, b)
+}
+
+/// Splits every edge longer than `hi` times h(midpoint) at its midpoint projected onto the
+/// surface. Returns the number of splits.
+pub fn split_long(
+    m: &mut TriMesh<DVec3>,
+    phi: &dyn Implicit3,
+    size: &SizeField,
+    hi: f64,
+    tol: f64,
+) -> Result<usize, Error> {
+    let mut n = 0;
+    for e in edge_list(m) {
+        let Some(h) = edge_now(m, e) else { continue };
+        let (a, b) = (e.1, e.2);
+        let (pa, pb) = (m.pos(a), m.pos(b));
+        let mid = 0.5 * (pa + pb);
+        if pa.distance(pb) <= hi * size.at(mid) {
+            continue;
+        }
+        let p = project(phi, mid, tol)?;
+        if m.split_edge(h, p).is_ok() {
+            n += 1;
+        }
+    }
+    Ok(n)
+}
+
+/// The triangles around `a` and `b` that survive collapsing the edge a-b, with both ends moved
+/// to `pos`, as point triples (counter-clockwise).
+fn collapse_ring(m: &TriMesh<DVec3>, h: HalfEdgeId, pos: DVec3) -> (Vec<[DVec3; 3]>, Vec<DVec3>) {
+    let t = m.twin(h);
+    let (a, b) = (m.origin(h), m.origin(t));
+    let gone = [m.face_of(h), m.face_of(t)];
+    let mut tris = Vec::new();
+    let mut ring = Vec::new();
+    for v in [a, b] {
+        for x in m.outgoing(v) {
+            let w = m.dest(x);
+            if w != a && w != b {
+                ring.push(m.pos(w));
+            }
+            let Some(f) = m.face_of(x) else { continue };
+            if gone.contains(&Some(f)) {
+                continue;
+            }
+            let y = m.next(x);
+            tris.push([pos, m.pos(m.origin(y)), m.pos(m.dest(y))]);
+        }
+    }
+    (tris, ring)
+}
+
+/// Collapses every edge shorter than `lo` times h(midpoint) into its projected midpoint, when
+/// the link condition holds (the engine's check), no new triangle folds or falls below quality
+/// `min_q`, and no new edge passes `hi` times h. Returns the number of collapses.
+#[allow(clippy::too_many_arguments)]
+pub fn collapse_short(
+    m: &mut TriMesh<DVec3>,
+    phi: &dyn Implicit3,
+    size: &SizeField,
+    lo: f64,
+    hi: f64,
+    min_q: f64,
+    tol: f64,
+) -> Result<usize, Error> {
+    let mut n = 0;
+    for e in edge_list(m) {
+        let Some(h) = edge_now(m, e) else { continue };
+        let (a, b) = (e.1, e.2);
+        let (pa, pb) = (m.pos(a), m.pos(b));
+        let mid = 0.5 * (pa + pb);
+        let hm = size.at(mid);
+        if pa.distance(pb) >= lo * hm || m.num_vertices() <= 4 {
+            continue;
+        }
+        let p = project(phi, mid, tol)?;
+        let (tris, ring) = collapse_ring(m, h, p);
+        let hp = size.at(p);
+        if ring.iter().any(|&r| r.distance(p) > hi * hp) {
+            continue;
+        }
+        if tris.iter().any(|t| triangle_q3(*t) < min_q || !faces_out(phi, t[0], t[1], t[2], FOLD_COS)) {
+            continue;
+        }
+        if m.collapse(h, p).is_ok() {
+            n += 1;
+        }
+    }
+    Ok(n)
+}
+
+/// One remeshing pass (the isotropic remeshing loop of Botsch and Kobbelt, 2004): split long,
+/// collapse short, valence flips, tangential smoothing with projection.
+pub(super) fn remesh_pass(
+    m: &mut TriMesh<DVec3>,
+    phi: &dyn Implicit3,
+    size: &SizeField,
+    tol: f64,
+    counts: &mut OpCounts,
+) -> Result<(), Error> {
+    counts.splits += split_long(m, phi, size, REMESH_HI, tol)?;
+    counts.collapses += collapse_short(m, phi, size, REMESH_LO, REMESH_HI, 0.0, tol)?;
+    counts.flips += flip_pass(m, phi, FlipGoal::Valence, 3);
+    smooth_tangential(m, phi, 0.5, tol)?;
+    Ok(())
+}
+
+/// Density control during the force loop: splits above DENSITY_HI h, collapses below
+/// DENSITY_LO h (keeping every new triangle above quality 0.3), then quality flips if anything
+/// changed. Returns the number of splits and collapses.
+pub(super) fn density_control(
+    m: &mut TriMesh<DVec3>,
+    phi: &dyn Implicit3,
+    size: &SizeField,
+    tol: f64,
+    counts: &mut OpCounts,
+) -> Result<usize, Error> {
+    let s = split_long(m, phi, size, DENSITY_HI, tol)?;
+    let c = collapse_short(m, phi, size, DENSITY_LO, DENSITY_HI, 0.3, tol)?;
+    counts.splits += s;
+    counts.collapses += c;
+    if s + c > 0 {
+        counts.flips += flip_pass(m, phi, FlipGoal::Quality, 10);
+    }
+    Ok(s + c)
+}
+
+/// The same surface rebuilt with its vertices in Hilbert-curve order and its faces by their
+/// first vertex there, so that neighbours sit near each other in the arenas. Meshes grown by
+/// splits and subdivision scatter them, and every sweep then waits on cache misses.
+pub fn relayout(m: &TriMesh<DVec3>) -> Result<TriMesh<DVec3>, Error> {
+    let (points, tris, _, _) = m.to_arrays();
+    let order = crate::topology::hilbert_sort_3d(&points);
+    let mut rank = vec![0usize; points.len()];
+    for (r, &i) in order.iter().enumerate() {
+        rank[i] = r;
+    }
+    let pts: Vec<DVec3> = order.iter().map(|&i| points[i]).collect();
+    let mut faces: Vec<[usize; 3]> = tris.iter().map(|t| [rank[t[0]], rank[t[1]], rank[t[2]]]).collect();
+    faces.sort_by_key(|t| (t[0].min(t[1]).min(t[2]), t[0], t[1], t[2]));
+    let (out, _) = TriMesh::from_arrays(&pts, &faces)
+        .map_err(|e| Error::internal(format!("rebuilding a valid surface mesh failed: {e}")))?;
+    Ok(out)
+}
+
+/// Regular 1-to-4 subdivision: every edge split at its projected midpoint, then every edge
+/// from a new vertex to an old vertex that is not its parent flipped. New vertices get valence
+/// 6, so the irregular vertices of the coarse mesh are all the fine mesh has.
+pub fn subdivide(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, tol: f64) -> Result<usize, Error> {
+    let mut old: SecondaryMap<VertexId, ()> = SecondaryMap::new();
+    for v in m.vertex_ids() {
+        old.insert(v, ());
+    }
+    let mut parent: SecondaryMap<VertexId, (VertexId, VertexId)> = SecondaryMap::new();
+    let mut n = 0;
+    for e in edge_list(m) {
+        let Some(h) = edge_now(m, e) else { continue };
+        let (a, b) = (e.1, e.2);
+        let p = project(phi, 0.5 * (m.pos(a) + m.pos(b)), tol)?;
+        if let Ok(v) = m.split_edge(h, p) {
+            parent.insert(v, (a, b));
+            n += 1;
+        }
+    }
+    for e in edge_list(m) {
+        let (a, b) = (e.1, e.2);
+        let (new, o) = if parent.contains_key(a) && old.contains_key(b) {
+            (a, b)
+        } else if parent.contains_key(b) && old.contains_key(a) {
+            (b, a)
+        } else {
+            continue;
+        };
+        let (p0, p1) = parent[new];
+        if o == p0 || o == p1 {
+            continue;
+        }
+        if let Some(h) = edge_now(m, e) {
+            // A refused flip leaves a valence defect, never an invalid mesh.
+            let _ = m.flip(h);
+        }
+    }
+    Ok(n)
+}
