@@ -155,7 +155,7 @@ impl Snapshot {
     /// Step control from `old` to `newp` (only the triangles in `subset` when given): a vertex
     /// of a triangle the step would invert steps back halfway, at most MAX_HALVINGS times.
     pub(super) fn guard_inversions(&self, old: &[DVec2], newp: &mut [DVec2], subset: Option<&[u32]>) {
-        truss::guard_inversions(&self.tris, subset, old, newp, MAX_HALVINGS, |q, t| {
+        truss::guard_inversions(&self.tris, subset, old, newp, MAX_HALVINGS, Backoff::PerElement, |q, t| {
             orient2d(q[t[0] as usize], q[t[1] as usize], q[t[2] as usize]) == Sign::Positive
         });
     }

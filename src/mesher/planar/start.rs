@@ -117,9 +117,8 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2
                 m.set_pos_unchecked(v, old);
             }
         }
-        let (v, f) = m
-            .insert_delaunay(*p, hint)
-            .ok_or_else(|| Error::internal("fixed point outside the enclosing triangle"))?;
+        let (v, f) =
+            m.insert_delaunay(*p, hint).ok_or_else(|| Error::internal("fixed point outside the enclosing triangle"))?;
         m.set_tag(v, VertexTag::Fixed);
         hint = f;
     }

@@ -16,5 +16,5 @@ pub(crate) mod stop;
 pub(crate) use band::DensityBand;
 pub(crate) use force::{bar_force, RestScale};
 pub(crate) use parallel::{det_sum, Marks, CHUNK};
-pub(crate) use step::{backtrack, guard_inversions};
+pub(crate) use step::{backtrack, guard_inversions, Backoff};
 pub(crate) use stop::Plateau;

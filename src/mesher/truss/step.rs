@@ -6,8 +6,17 @@ use super::force::TrussPoint;
 use super::parallel::CHUNK;
 use rayon::prelude::*;
 
+/// How often a vertex of rejected elements steps back in one round of [`guard_inversions`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Backoff {
+    /// Once for each rejected element it belongs to (the more rejected, the shorter the step).
+    PerElement,
+    /// Once per round, however many rejected elements it belongs to.
+    PerRound,
+}
+
 /// Batch step control after a Jacobi step from `old` to `newp`: every vertex of an element
-/// that `positive` rejects steps back halfway, once for each such element, at most
+/// that `positive` rejects steps back halfway (as often as `backoff` says), at most
 /// `max_halvings` times in all (then back to its old position), until every element is
 /// positive. Only the elements in `subset` (indices
 /// into `cells`) are checked when given (the others have no vertex that moved). The old
@@ -18,6 +27,7 @@ pub(crate) fn guard_inversions<P: TrussPoint, const N: usize>(
     old: &[P],
     newp: &mut [P],
     max_halvings: u8,
+    backoff: Backoff,
     positive: impl Fn(&[P], &[u32; N]) -> bool + Sync,
 ) {
     let all: Vec<u32>;
@@ -47,8 +57,10 @@ pub(crate) fn guard_inversions<P: TrussPoint, const N: usize>(
     let mut moved = vec![false; old.len()];
     while !bad.is_empty() {
         let mut hit: Vec<u32> = bad.iter().flat_map(|&k| cells[k as usize]).collect();
-        // Once per rejected element: a vertex of several steps back the more.
         hit.sort_unstable();
+        if backoff == Backoff::PerRound {
+            hit.dedup();
+        }
         let mut touched = false;
         for i in hit {
             let i = i as usize;
@@ -111,12 +123,12 @@ mod tests {
         let old = [DVec2::ZERO, DVec2::X, DVec2::Y];
         // Vertex 2 jumps below the edge 0-1: halved twice it is above again.
         let mut newp = [DVec2::ZERO, DVec2::X, DVec2::new(0.0, -2.0)];
-        guard_inversions(&tris, None, &old, &mut newp, 6, positive);
+        guard_inversions(&tris, None, &old, &mut newp, 6, Backoff::PerRound, positive);
         assert!(positive(&newp, &tris[0]));
         assert_eq!(newp[2], DVec2::new(0.0, 0.25));
         // With no halving allowed it goes back.
         let mut newp = [DVec2::ZERO, DVec2::X, DVec2::new(0.0, -2.0)];
-        guard_inversions(&tris, None, &old, &mut newp, 0, positive);
+        guard_inversions(&tris, None, &old, &mut newp, 0, Backoff::PerElement, positive);
         assert_eq!(newp[2], old[2]);
     }
 

@@ -2,16 +2,16 @@
 
 use super::snapshot::Snapshot;
 use super::Ctx;
+use crate::mesher::truss::DensityBand;
 use crate::topology::{TVertexId, TetId, TetMesh, VertexTag, EDGE_VERTICES};
 use crate::Error;
 use glam::DVec3;
 
-/// Split edges longer than this many current target lengths, collapse shorter than this.
-const SPLIT_ABOVE: f64 = 1.6;
-const COLLAPSE_BELOW: f64 = 0.5;
+/// Edges longer than 1.6 current target lengths are split, shorter than 0.5 collapsed.
+const BAND: DensityBand = DensityBand::new(1.6, 0.5);
 
-/// Splits edges longer than SPLIT_ABOVE and collapses edges shorter than COLLAPSE_BELOW times
-/// the current target (the mesh's own scale `unit` times h), one change per neighbourhood.
+/// Splits and collapses the edges outside [`BAND`], in units of the current target (the
+/// mesh's own scale `unit` times h), one change per neighbourhood.
 pub(super) fn density_control(
     ctx: &mut Ctx,
     m: &mut TetMesh,
@@ -29,9 +29,9 @@ pub(super) fn density_control(
                 continue;
             }
             let r = p[i].distance(p[j]) / (unit * 0.5 * (hv[i] + hv[j]));
-            if r > SPLIT_ABOVE {
+            if BAND.splits(r) {
                 long.push((r, i as u32, j as u32));
-            } else if r < COLLAPSE_BELOW {
+            } else if BAND.collapses(r) {
                 short.push((r, i as u32, j as u32));
             }
         }

@@ -7,10 +7,9 @@ use super::carve::{carve, stuck_tets};
 use super::density::density_control;
 use super::improve::try_swaps;
 use super::report::QualityStats3;
-use super::snapshot::{
-    det_sum, guard_inversions, mean_rr, write_back, PhaseClock, Snapshot, BOUNDARY, FIXED, INTERIOR,
-};
+use super::snapshot::{mean_rr, write_back, PhaseClock, Snapshot, BOUNDARY, FIXED, INTERIOR};
 use super::{Ctx, CHUNK, GEPS};
+use crate::mesher::truss::{self, bar_force, det_sum, RestScale};
 use crate::quality::{dihedral_quality_cos_bounds, tet_dihedral_quality, tet_dihedral_quality_below};
 use crate::topology::{TetId, TetMesh, VertexTag};
 use crate::Error;
@@ -99,7 +98,8 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         }
     };
     let mut hv = sizes(ctx, &p)?;
-    let (mut best_q, mut converged, mut iter) = (Vec::new(), false, 0);
+    let mut plateau = truss::Plateau::over_span(QUALITY_PLATEAU, PLATEAU_WINDOWS);
+    let (mut converged, mut iter) = (false, 0);
     let mut tried: SecondaryMap<TetId, usize> = SecondaryMap::new();
     let mut clock = PhaseClock::new();
     let mut stuck: Vec<TetId> = Vec::new();
@@ -110,21 +110,22 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             cb(iter, opts.max_iter);
         }
         // Seed eq. 2.6 in 3-D: L0 = h_bar Fscale (sum L^3 / sum h_bar^3)^(1/3).
-        let (sl, sh) = det_sum(p.len(), |i| {
+        let sums = det_sum(p.len(), |i| {
             let mut s = (0.0, 0.0);
             for &j in snap.row(i) {
                 let j = j as usize;
                 if j == i {
                     continue;
                 }
-                let hb = 0.5 * (hv[i] + hv[j]);
-                s.0 += p[i].distance(p[j]).powi(3);
-                s.1 += hb * hb * hb;
+                let (l, h) = RestScale::terms(3, p[i].distance_squared(p[j]), 0.5 * (hv[i] + hv[j]));
+                s.0 += l;
+                s.1 += h;
             }
             s
         });
-        let unit = (sl / sh).cbrt();
-        let scale = opts.fscale * unit;
+        let rest = RestScale::from_sums(3, sums);
+        let unit = rest.unit();
+        let scale = rest.scale(opts.fscale);
         let dt = opts.deltat;
         let mut newp: Vec<DVec3> = (0..p.len())
             .into_par_iter()
@@ -137,11 +138,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
                 for &j in snap.row(i) {
                     let j = j as usize;
                     let d = p[i] - p[j];
-                    let l = d.length();
-                    let l0 = 0.5 * (hv[i] + hv[j]) * scale;
-                    if l > 0.0 && l0 > l {
-                        f += d * ((l0 - l) / l);
-                    }
+                    f += bar_force(d, d.length(), 0.5 * (hv[i] + hv[j]) * scale);
                 }
                 p[i] + dt * f
             })
@@ -159,7 +156,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             newp[i] = q;
         }
         clock.lap("projection");
-        guard_inversions(&snap, &p, &mut newp);
+        snap.guard_inversions(&p, &mut newp);
         clock.lap("step control");
         let max_move = (0..p.len())
             .into_par_iter()
@@ -373,7 +370,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             hv = sizes(ctx, &p)?;
         }
         clock.lap("snapshot");
-        if max_move < opts.dptol && iter > DENSITY_EVERY {
+        if truss::stop::at_rest(max_move, opts.dptol, iter, DENSITY_EVERY) {
             converged = true;
             ctx.report.stop_reason = format!("nodes moved less than dptol = {} (relative to h)", opts.dptol);
             break;
@@ -418,11 +415,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
                     ctx.report.removed
                 );
             }
-            best_q.push(best_q.last().map_or(q, |&b: &f64| b.max(q)));
-            let n = best_q.len();
-            if n > PLATEAU_WINDOWS
-                && best_q[n - 1] - best_q[n - 1 - PLATEAU_WINDOWS] < PLATEAU_WINDOWS as f64 * QUALITY_PLATEAU
-            {
+            if plateau.reached(q) {
                 converged = true;
                 ctx.report.stop_reason = "mean quality stopped improving".into();
                 break;

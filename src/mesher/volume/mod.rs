@@ -71,8 +71,7 @@ const RR_ROUNDS: usize = 4;
 const RR_ROUND_GAIN: f64 = 5e-3;
 /// The mean-quality pass keeps every local worst dihedral quality at least min(old, this).
 const RR_TQ_FLOOR: f64 = 0.55;
-/// Chunk size of the deterministic parallel loops.
-const CHUNK: usize = 4096;
+use crate::mesher::truss::CHUNK;
 
 struct Ctx<'a> {
     domain: &'a dyn Implicit3,

@@ -1,7 +1,11 @@
 //! The force loop's compact arrays of the mesh (patched after local changes instead of rebuilt),
 //! the step control that keeps every tet positive, and the wall-time clock per phase.
 
-use super::CHUNK;
+use crate::mesher::truss::{self, det_sum, Backoff};
+
+/// Step control: a vertex of a tet a step would invert steps back halfway at most this many
+/// times, then stays where it was.
+const MAX_HALVINGS: u8 = 6;
 use crate::predicates::{orient3d, Sign};
 use crate::topology::{Journal, TVertexId, TetId, TetMesh, VertexTag};
 use glam::DVec3;
@@ -47,6 +51,14 @@ fn kind_of(tag: VertexTag) -> u8 {
 }
 
 impl Snapshot {
+    /// Step control from `old` to `newp`: a vertex of a tet the step would not leave positive
+    /// (exact orient3d) steps back halfway, at most MAX_HALVINGS times.
+    pub(super) fn guard_inversions(&self, old: &[DVec3], newp: &mut [DVec3]) {
+        truss::guard_inversions(&self.tets, None, old, newp, MAX_HALVINGS, Backoff::PerRound, |q, t| {
+            orient3d(q[t[0] as usize], q[t[1] as usize], q[t[2] as usize], q[t[3] as usize]) == Sign::Positive
+        });
+    }
+
     /// The entries of vertex i's row.
     #[inline]
     fn range(&self, i: usize) -> std::ops::Range<usize> {
@@ -236,23 +248,6 @@ impl Snapshot {
     }
 }
 
-/// Deterministic parallel sum of pairs: fixed chunks, partial sums added in order.
-pub(super) fn det_sum(n: usize, f: impl Fn(usize) -> (f64, f64) + Sync) -> (f64, f64) {
-    let parts: Vec<(f64, f64)> = (0..n.div_ceil(CHUNK))
-        .into_par_iter()
-        .map(|c| {
-            let mut s = (0.0, 0.0);
-            for i in c * CHUNK..((c + 1) * CHUNK).min(n) {
-                let x = f(i);
-                s.0 += x.0;
-                s.1 += x.1;
-            }
-            s
-        })
-        .collect();
-    parts.into_iter().fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1))
-}
-
 pub(super) fn write_back(m: &mut TetMesh, snap: &Snapshot, p: &[DVec3]) {
     // Vertices removed since the snapshot (a tent dropped from the boundary) are skipped.
     for (k, &v) in snap.ids.iter().enumerate() {
@@ -268,45 +263,6 @@ pub(super) fn mean_rr(snap: &Snapshot, p: &[DVec3]) -> f64 {
         (crate::quality::tet_radius_ratio(t.map(|i| p[i as usize])), 1.0)
     });
     s / n.max(1.0)
-}
-
-/// Halves the step of every vertex of a tet that would not be positive (exact), up to six
-/// times, then puts those vertices back; repeats until every tet is positive. The old
-/// positions are valid, so this ends.
-pub(super) fn guard_inversions(snap: &Snapshot, old: &[DVec3], newp: &mut [DVec3]) {
-    let positive = |newp: &[DVec3], t: [u32; 4]| {
-        orient3d(newp[t[0] as usize], newp[t[1] as usize], newp[t[2] as usize], newp[t[3] as usize]) == Sign::Positive
-    };
-    let mut bad: Vec<usize> =
-        (0..snap.tets.len()).into_par_iter().with_min_len(CHUNK).filter(|&k| !positive(newp, snap.tets[k])).collect();
-    let mut halvings = vec![0u8; old.len()];
-    let mut moved = vec![false; old.len()];
-    while !bad.is_empty() {
-        let mut hit: Vec<u32> = bad.iter().flat_map(|&k| snap.tets[k]).collect();
-        hit.sort_unstable();
-        hit.dedup();
-        for i in hit {
-            let i = i as usize;
-            if newp[i] == old[i] {
-                continue;
-            }
-            halvings[i] += 1;
-            newp[i] = if halvings[i] > 6 { old[i] } else { (old[i] + newp[i]) * 0.5 };
-            moved[i] = true;
-        }
-        // Only the tets of vertices just moved back can have changed sign: the rescan looks
-        // at them alone (a flag test per tet instead of an orientation).
-        let newp_ro: &[DVec3] = newp;
-        bad = (0..snap.tets.len())
-            .into_par_iter()
-            .with_min_len(CHUNK)
-            .filter(|&k| {
-                let t = snap.tets[k];
-                t.iter().any(|&i| moved[i as usize]) && !positive(newp_ro, t)
-            })
-            .collect();
-        moved.iter_mut().for_each(|x| *x = false);
-    }
 }
 
 /// Wall time per phase of the force loop, printed with TRUSSMESH_TRACE: where a large run
