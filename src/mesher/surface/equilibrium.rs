@@ -7,6 +7,7 @@ use super::geom::{self, normal, SizeField};
 use super::improve::{flip_pass, move_if_no_fold_g, try_flip, FlipGoal};
 use super::options::SurfaceOptions;
 use crate::geometry::Implicit3;
+use crate::mesher::truss::{self, backtrack, bar_force, RestScale};
 use crate::topology::{FaceId, TriMesh, VertexId};
 use crate::Error;
 use glam::DVec3;
@@ -112,7 +113,7 @@ pub(super) fn force_loop(
         if sc > marked.0 + step {
             marked = (sc, it);
         }
-        if moved < opts.dptol && it > DENSITY_EVERY {
+        if truss::stop::at_rest(moved, opts.dptol, it, DENSITY_EVERY) {
             run.converged = true;
             break;
         }
@@ -181,25 +182,19 @@ fn force_step(
     let bars: Vec<[u32; 2]> = m.edge_ids().map(|h| [index[m.origin(h)], index[m.dest(h)]]).collect();
     let mut len = Vec::with_capacity(bars.len());
     let mut hb = Vec::with_capacity(bars.len());
-    let (mut sl, mut sh) = (0.0, 0.0);
+    let mut rest = RestScale::new(2);
     for &[a, b] in &bars {
         let (pa, pb) = (pos[a as usize], pos[b as usize]);
         let l = pa.distance(pb);
         let h = size.at(0.5 * (pa + pb));
-        sl += l * l;
-        sh += h * h;
+        rest.add(l * l, h);
         len.push(l);
         hb.push(h);
     }
-    let scale = opts.fscale * (sl / sh).sqrt();
+    let scale = rest.scale(opts.fscale);
     let mut force = vec![DVec3::ZERO; ids.len()];
     for (k, &[a, b]) in bars.iter().enumerate() {
-        let l0 = hb[k] * scale;
-        let l = len[k];
-        if l <= 0.0 || l0 <= l {
-            continue;
-        }
-        let f = (l0 - l) / l * (pos[a as usize] - pos[b as usize]);
+        let f = bar_force(pos[a as usize] - pos[b as usize], len[k], hb[k] * scale);
         force[a as usize] += f;
         force[b as usize] -= f;
     }
@@ -217,10 +212,9 @@ fn force_step(
     for (i, &v) in ids.iter().enumerate() {
         let p = pos[i];
         let (q, g) = moves[i];
-        if move_if_no_fold_g(m, v, q, g) {
-            moved = moved.max(q.distance(p) / size.at(p));
-        } else {
-            *undone += 1;
+        match backtrack(p, q, 0, |y| Ok::<bool, Error>(move_if_no_fold_g(m, v, y, g)))? {
+            Some(y) => moved = moved.max(y.distance(p) / size.at(p)),
+            None => *undone += 1,
         }
     }
     Ok(moved)
