@@ -25,6 +25,14 @@ pub mod topology;
 
 pub use mesher::surface;
 
+/// The vector types of the API (`DVec2`, `DVec3`), re-exported so that a user needs no glam
+/// dependency of a matching version.
+pub use glam;
+
+pub use geometry::{Implicit2, Implicit3, LevelSet};
+pub use mesher::surface::{mesh_surface, SurfaceOptions};
+pub use mesher::{mesh_2d, mesh_3d, MeshOutput2, MeshOutput3, Options2, Options3, StopReason};
+
 #[doc(hidden)]
 pub mod testing;
 

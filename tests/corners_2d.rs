@@ -27,7 +27,7 @@ fn has(points: &[DVec2], p: DVec2, tol: f64) -> bool {
 fn square_keeps_its_corners() {
     for h0 in [0.1, 0.17, 0.3] {
         let out = mesh("drectangle(x,y,-1,1,-1,1)", h0);
-        assert_eq!(out.report.corner_points, 4);
+        assert_eq!(out.report.feature_points, 4);
         let held = fixed(&out);
         for c in [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]] {
             assert!(has(&held, DVec2::from(c), 1e-12), "corner {c:?} held: {held:?}");
@@ -44,7 +44,7 @@ fn corners_can_be_turned_off() {
     let o = Options2::uniform(0.17, [-1.0, -1.0], [1.0, 1.0]).with_sharp_corners(false);
     let out = mesh_2d(&d, &o).expect("meshes");
     out.mesh.validate(Level::Geometry).expect("valid");
-    assert_eq!(out.report.corner_points, 0);
+    assert_eq!(out.report.feature_points, 0);
     assert!(fixed(&out).is_empty());
     assert!(area(&out.mesh) < 4.0 - 1e-4, "corners cut: area {}", area(&out.mesh));
 }
@@ -54,7 +54,7 @@ fn hexagon_with_a_hole_keeps_all_twelve_corners() {
     let outer = "dpoly(x,y, 1,0, 0.5,sqrt(3)/2, -0.5,sqrt(3)/2, -1,0, -0.5,-sqrt(3)/2, 0.5,-sqrt(3)/2)";
     let inner = "dpoly(x,y, sqrt(3)/4,0.25, 0,0.5, -sqrt(3)/4,0.25, -sqrt(3)/4,-0.25, 0,-0.5, sqrt(3)/4,-0.25)";
     let out = mesh(&format!("ddiff({outer}, {inner})"), 0.1);
-    assert_eq!(out.report.corner_points, 12);
+    assert_eq!(out.report.feature_points, 12);
     let held = fixed(&out);
     let s = 3f64.sqrt();
     for k in 0..6 {
@@ -70,8 +70,8 @@ fn hexagon_with_a_hole_keeps_all_twelve_corners() {
 
 #[test]
 fn smooth_domains_have_no_corners() {
-    assert_eq!(mesh("sqrt(x^2+y^2)-1", 0.1).report.corner_points, 0);
-    assert_eq!(mesh("ddiff(dcircle(x,y,0,0,1), dcircle(x,y,0.2,0,0.4))", 0.1).report.corner_points, 0);
+    assert_eq!(mesh("sqrt(x^2+y^2)-1", 0.1).report.feature_points, 0);
+    assert_eq!(mesh("ddiff(dcircle(x,y,0,0,1), dcircle(x,y,0.2,0,0.4))", 0.1).report.feature_points, 0);
 }
 
 /// Where a circle meets a straight side the corner is found exactly: the tangent lines meet off
@@ -79,7 +79,7 @@ fn smooth_domains_have_no_corners() {
 #[test]
 fn corner_between_a_circle_and_a_line() {
     let out = mesh("max(dcircle(x,y,0,0,0.7), y-0.3)", 0.1);
-    assert_eq!(out.report.corner_points, 2);
+    assert_eq!(out.report.feature_points, 2);
     let held = fixed(&out);
     let x = (0.49f64 - 0.09).sqrt();
     for c in [DVec2::new(-x, 0.3), DVec2::new(x, 0.3)] {

@@ -5,7 +5,7 @@
 use glam::DVec3;
 use trussmesh::mesher::image::stack_distance;
 use trussmesh::mesher::{mesh_3d, Options3};
-use trussmesh::surface::{mesh_implicit_surface, SurfaceOptions};
+use trussmesh::surface::{mesh_surface, SurfaceOptions};
 use trussmesh::topology::{Level, VertexTag};
 
 const N: [usize; 3] = [48, 40, 36];
@@ -48,7 +48,7 @@ fn exact_volume() -> f64 {
 fn a_stack_meshed_as_a_surface() {
     let phi = stack_distance(&stack(), N[0], N[1], N[2], 0.5).expect("distance");
     let bbox = [DVec3::splat(-2.0), DVec3::new(N[0] as f64 + 2.0, N[1] as f64 + 2.0, N[2] as f64 + 2.0)];
-    let out = mesh_implicit_surface(&phi, &SurfaceOptions::uniform(2.0, bbox)).expect("surface meshes");
+    let out = mesh_surface(&phi, &SurfaceOptions::uniform(2.0, bbox[0], bbox[1])).expect("surface meshes");
     let q = &out.report.quality;
     let worst = out.mesh.vertices().map(|(_, v)| truth(v.pos).abs()).fold(0.0, f64::max);
     println!(

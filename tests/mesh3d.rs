@@ -125,8 +125,8 @@ fn cylinder_minus_ball_graded() {
 /// row were carved together. The validity and element-quality targets.
 #[test]
 fn cylinder_minus_ball_h009_has_no_stuck_sliver() {
-    let (d, o, v) = cyl_minus_ball();
-    let o = Options3 { h0: 0.09, ..o };
+    let (d, mut o, v) = cyl_minus_ball();
+    o.h0 = 0.09;
     let r = measure("cylinder minus ball, h = min(4|x| - 1, 2), h0 = 0.09", &d, &o, v);
     check_basic(&r);
     check_quality(&r);
@@ -166,7 +166,7 @@ fn sharp_edge_points_lie_on_the_edges() {
     let out = mesh_3d(&cube, &Options3::uniform(h0, [-1.1; 3], [1.1; 3])).expect("meshes");
     let m = &out.mesh;
     let held: Vec<DVec3> = m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).map(|v| m.pos(v)).collect();
-    assert_eq!(held.len(), out.report.sharp_edge_points);
+    assert_eq!(held.len(), out.report.feature_points);
     let on = |x: f64| (x.abs() - 1.0).abs() < 1e-9;
     let mut per_edge = std::collections::BTreeMap::new();
     let mut corners = 0;
@@ -187,10 +187,10 @@ fn sharp_edge_points_lie_on_the_edges() {
     assert!(per_edge.values().all(|&n| (6..=10).contains(&n)), "{per_edge:?}");
     let ball = Ball::new([0.0, 0.0, 0.0], 1.0);
     let out = mesh_3d(&ball, &Options3::uniform(h0, [-1.1; 3], [1.1; 3])).expect("meshes");
-    assert_eq!(out.report.sharp_edge_points, 0);
+    assert_eq!(out.report.feature_points, 0);
     // Turned off, nothing is held.
     let out = mesh_3d(&cube, &Options3::uniform(h0, [-1.1; 3], [1.1; 3]).with_sharp_edges(false)).expect("meshes");
-    assert_eq!(out.report.sharp_edge_points, 0);
+    assert_eq!(out.report.feature_points, 0);
     assert!(out.mesh.vertex_ids().all(|v| out.mesh.tag(v) != VertexTag::Fixed));
 }
 

@@ -6,7 +6,7 @@ use trussmesh::gallery::EXAMPLES;
 use trussmesh::geometry::{Circle, Implicit2};
 use trussmesh::mesher::{area, boundary_deviation, mesh_2d, size_deviation, Options2, Strategy};
 use trussmesh::topology::{Level, VertexTag};
-use trussmesh::Error;
+use trussmesh::{Error, StopReason};
 
 struct Row {
     name: String,
@@ -175,7 +175,7 @@ fn iteration_cap_returns_a_valid_mesh_with_a_report() {
     let out = mesh_2d(&disk, &Options2::uniform(0.1, [-1.0, -1.0], [1.0, 1.0]).with_max_iter(3)).unwrap();
     assert!(!out.report.converged);
     assert_eq!(out.report.iterations, 3);
-    assert!(out.report.stop_reason.contains("cap"), "{}", out.report.stop_reason);
+    assert_eq!(out.report.stop, StopReason::IterationCap { max_iter: 3 }, "{}", out.report.stop);
     out.mesh.validate(Level::Geometry).unwrap();
 }
 

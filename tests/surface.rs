@@ -3,7 +3,7 @@
 //! kept in docs/quality.md.
 
 use glam::DVec3;
-use trussmesh::surface::{mesh_implicit_surface, SurfaceOptions, SurfaceOutput, SurfaceQuality};
+use trussmesh::surface::{mesh_surface, SurfaceOptions, SurfaceOutput, SurfaceQuality};
 use trussmesh::topology::Level;
 use trussmesh::Error;
 
@@ -57,7 +57,7 @@ struct Case {
 
 fn run(name: &'static str, phi: fn(DVec3) -> f64, opts: SurfaceOptions, euler: i64) -> Case {
     let h0 = opts.h0;
-    let out = mesh_implicit_surface(&phi, &opts).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let out = mesh_surface(&phi, &opts).unwrap_or_else(|e| panic!("{name}: {e}"));
     Case { name, out, euler, h0 }
 }
 
@@ -135,8 +135,13 @@ fn bbox(r: f64) -> [DVec3; 2] {
     [DVec3::splat(-r), DVec3::splat(r)]
 }
 
+/// Uniform options of size `h` in the box `b`.
+fn uniform(h: f64, b: [DVec3; 2]) -> SurfaceOptions {
+    SurfaceOptions::uniform(h, b[0], b[1])
+}
+
 fn sphere_case() -> Case {
-    let c = run("unit sphere", sphere, SurfaceOptions::uniform(0.1, bbox(1.2)), 2);
+    let c = run("unit sphere", sphere, uniform(0.1, bbox(1.2)), 2);
     table(&[&c]);
     println!("{}", c.out.report);
     check_valid(&c);
@@ -145,7 +150,7 @@ fn sphere_case() -> Case {
 
 fn torus_case() -> Case {
     let b = [DVec3::new(-1.5, -1.5, -0.5), DVec3::new(1.5, 1.5, 0.5)];
-    let c = run("torus R=1 r=0.3", torus, SurfaceOptions::uniform(0.1, b), 0);
+    let c = run("torus R=1 r=0.3", torus, uniform(0.1, b), 0);
     table(&[&c]);
     println!("{}", c.out.report);
     check_valid(&c);
@@ -154,7 +159,7 @@ fn torus_case() -> Case {
 
 fn genus2_case() -> Case {
     let b = [DVec3::new(-2.4, -1.5, -0.5), DVec3::new(2.4, 1.5, 0.5)];
-    let c = run("double torus", double_torus, SurfaceOptions::uniform(0.1, b), -2);
+    let c = run("double torus", double_torus, uniform(0.1, b), -2);
     table(&[&c]);
     println!("{}", c.out.report);
     check_valid(&c);
@@ -164,7 +169,7 @@ fn genus2_case() -> Case {
 /// Sizes from curvature (3 elements per radian) and gradient limiting (g = 0.2), between
 /// h0 = 0.05 and 0.15, as the seed's figure does.
 fn fig37_case() -> Case {
-    let opts = SurfaceOptions::uniform(0.05, bbox(1.4)).with_curvature(3.0, 0.2, 0.15);
+    let opts = uniform(0.05, bbox(1.4)).with_curvature(3.0, 0.2, 0.15);
     let c = run("seed fig. 3-7", fig37, opts, 0);
     table(&[&c]);
     println!("{}", c.out.report);
@@ -225,9 +230,9 @@ fn fig37_curvature_size_deviation() {
 
 #[test]
 fn same_input_same_mesh() {
-    let opts = SurfaceOptions::uniform(0.2, bbox(1.2)).with_max_iterations(60);
-    let a = mesh_implicit_surface(&sphere, &opts).unwrap();
-    let b = mesh_implicit_surface(&sphere, &opts).unwrap();
+    let opts = uniform(0.2, bbox(1.2)).with_max_iter(60);
+    let a = mesh_surface(&sphere, &opts).unwrap();
+    let b = mesh_surface(&sphere, &opts).unwrap();
     let (pa, ta, _, _) = a.mesh.to_arrays();
     let (pb, tb, _, _) = b.mesh.to_arrays();
     assert_eq!(ta, tb);
@@ -238,20 +243,20 @@ fn same_input_same_mesh() {
 #[test]
 fn bad_input_is_a_typed_error() {
     let b = bbox(1.2);
-    let e = mesh_implicit_surface(&sphere, &SurfaceOptions::uniform(0.0, b)).unwrap_err();
+    let e = mesh_surface(&sphere, &uniform(0.0, b)).unwrap_err();
     assert!(matches!(e, Error::BadSize(_)), "{e}");
-    let e = mesh_implicit_surface(&sphere, &SurfaceOptions::uniform(-1.0, b)).unwrap_err();
+    let e = mesh_surface(&sphere, &uniform(-1.0, b)).unwrap_err();
     assert!(matches!(e, Error::BadSize(_)), "{e}");
-    let e = mesh_implicit_surface(&|p: DVec3| p.length() - 5.0, &SurfaceOptions::uniform(0.2, b)).unwrap_err();
+    let e = mesh_surface(&|p: DVec3| p.length() - 5.0, &uniform(0.2, b)).unwrap_err();
     assert!(matches!(e, Error::EmptyDomain(_)), "{e}");
-    let e = mesh_implicit_surface(&|p: DVec3| p.length() + 1.0, &SurfaceOptions::uniform(0.2, b)).unwrap_err();
+    let e = mesh_surface(&|p: DVec3| p.length() + 1.0, &uniform(0.2, b)).unwrap_err();
     assert!(matches!(e, Error::EmptyDomain(_)), "{e}");
-    let e = mesh_implicit_surface(&|p: DVec3| (p.length() - 1.0).sqrt(), &SurfaceOptions::uniform(0.2, b)).unwrap_err();
+    let e = mesh_surface(&|p: DVec3| (p.length() - 1.0).sqrt(), &uniform(0.2, b)).unwrap_err();
     assert!(matches!(e, Error::NonFinite { .. }), "{e}");
     // A surface cut by the box is not closed.
-    let e = mesh_implicit_surface(&sphere, &SurfaceOptions::uniform(0.2, bbox(0.6))).unwrap_err();
+    let e = mesh_surface(&sphere, &uniform(0.2, bbox(0.6))).unwrap_err();
     assert!(matches!(e, Error::Invalid(_)), "{e}");
-    let e = mesh_implicit_surface(&sphere, &SurfaceOptions::uniform(0.2, [DVec3::ONE, -DVec3::ONE])).unwrap_err();
+    let e = mesh_surface(&sphere, &SurfaceOptions::uniform(0.2, DVec3::ONE, -DVec3::ONE)).unwrap_err();
     assert!(matches!(e, Error::BadBox(_)), "{e}");
 }
 
@@ -292,8 +297,8 @@ fn progress_reports_every_stage_in_order() {
     use std::sync::{Arc, Mutex};
     let seen = Arc::new(Mutex::new(Vec::new()));
     let log = seen.clone();
-    let opts = SurfaceOptions::uniform(0.1, bbox(1.2)).with_progress(move |d, t| log.lock().unwrap().push((d, t)));
-    let out = mesh_implicit_surface(&sphere, &opts).unwrap();
+    let opts = uniform(0.1, bbox(1.2)).with_progress(move |d, t| log.lock().unwrap().push((d, t)));
+    let out = mesh_surface(&sphere, &opts).unwrap();
     let seen = seen.lock().unwrap();
     let total = seen[0].1;
     // The start, each level of the coarse-to-fine start (two subdivisions here), the equalising.
@@ -301,6 +306,6 @@ fn progress_reports_every_stage_in_order() {
     assert!(seen.iter().all(|&(_, t)| t == total), "{seen:?}");
     assert_eq!(seen.iter().map(|&(d, _)| d).collect::<Vec<_>>(), (1..=total).collect::<Vec<_>>());
     // The callback does not change the result.
-    let plain = mesh_implicit_surface(&sphere, &SurfaceOptions::uniform(0.1, bbox(1.2))).unwrap();
+    let plain = mesh_surface(&sphere, &uniform(0.1, bbox(1.2))).unwrap();
     assert_eq!(out.mesh.to_arrays().0, plain.mesh.to_arrays().0);
 }

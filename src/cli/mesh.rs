@@ -189,11 +189,11 @@ pub struct Job {
     pub outputs: Vec<PathBuf>,
 }
 
-/// A finished run. `report` carries the 2-D report (for 3-D: its counts and times, no
-/// triangle statistics); `summary` is the report as printed.
+/// A finished run. `report` is the run's report without its quality summary (the mesh is
+/// measured on its own); `summary` is the report as printed.
 pub struct Meshed {
     pub mesh: MeshData,
-    pub report: Report,
+    pub report: Report<()>,
     pub summary: String,
 }
 
@@ -539,7 +539,7 @@ impl Job {
             subdomain,
         };
         let summary = out.report.to_string();
-        Ok(Meshed { mesh, report: out.report, summary })
+        Ok(Meshed { mesh, report: out.report.map_quality(|_| ()), summary })
     }
 }
 
@@ -565,19 +565,8 @@ fn mesh3(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
         cells: tets.iter().flatten().copied().collect(),
         subdomain,
     };
-    let r = &out.report;
-    let report = Report {
-        iterations: r.iterations,
-        converged: r.converged,
-        stop_reason: r.stop_reason.clone(),
-        seconds: r.seconds,
-        flips: r.flips,
-        splits: r.splits,
-        collapses: r.collapses,
-        boundary_nodes_off: r.boundary_nodes_off,
-        ..Default::default()
-    };
-    Ok(Meshed { mesh, report, summary: r.to_string() })
+    let summary = out.report.to_string();
+    Ok(Meshed { mesh, report: out.report.map_quality(|_| ()), summary })
 }
 
 /// Writes one output: a mesh file, or a picture for .svg and .png.

@@ -10,7 +10,7 @@ use std::sync::Arc;
 use trussmesh::expr::{Expr, ExprImplicit3};
 use trussmesh::io::{CellType, MeshData};
 use trussmesh::surface::bezier::{mesh_patches, BezierOptions, BezierQuality, RationalBezierPatch};
-use trussmesh::surface::{mesh_implicit_surface, SurfaceOptions};
+use trussmesh::surface::{mesh_surface, SurfaceOptions};
 
 /// Mesh the closed surface phi(x, y, z) = 0 (phi < 0 inside).
 #[derive(Args, Debug)]
@@ -73,19 +73,19 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
     if corners.len() != 6 {
         return Err(Failure::bad(format!("--bbox needs 6 numbers X0,Y0,Z0,X1,Y1,Z1, not {}", corners.len())));
     }
-    let bbox = [DVec3::new(corners[0], corners[1], corners[2]), DVec3::new(corners[3], corners[4], corners[5])];
-    let mut opts = SurfaceOptions::uniform(h0, bbox);
+    let (lo, hi) = (DVec3::new(corners[0], corners[1], corners[2]), DVec3::new(corners[3], corners[4], corners[5]));
+    let mut opts = SurfaceOptions::uniform(h0, lo, hi);
     if let Some(k) = args.curvature {
         opts = opts.with_curvature(k, args.gradient, args.hmax.unwrap_or(8.0 * h0));
     }
     if let Some(n) = args.max_iter {
-        opts = opts.with_max_iterations(n);
+        opts = opts.with_max_iter(n);
     }
     let out = super::mesh::with_progress_bar(args.quiet, "stages", |pb| {
         if let Some(pb) = pb {
             opts = opts.with_progress(super::mesh::progress_callback(pb));
         }
-        mesh_implicit_surface(&phi, &opts)
+        mesh_surface(&phi, &opts)
     })?;
     let data = MeshData::from_trimesh3(&out.mesh);
     for p in &args.output {

@@ -6,6 +6,7 @@ use glam::{DMat2, DMat3, DVec2, DVec3};
 
 mod csg;
 mod grid;
+mod level_set;
 pub mod levelset;
 mod primitives2;
 mod primitives3;
@@ -18,6 +19,7 @@ pub use csg::{
     difference, exact_corners, intersection, union, Difference, ExactCorners, Intersection, Shape2, Shape3, Union,
 };
 pub use grid::{Grid2, Grid3};
+pub use level_set::LevelSet;
 pub use primitives2::{Circle, Ellipse, Polygon, Rectangle};
 pub use primitives3::{Ball, Box3, Cylinder};
 pub use project::{newton_distance2, newton_distance3, project2, project3, ProjectError, Projection};

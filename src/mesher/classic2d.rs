@@ -3,7 +3,7 @@
 //! Kept as the reference the local engine must beat, in tests and benches.
 
 use super::input::{eval_d, eval_h_floor, survey};
-use super::{MeshOutput2, Options2, QualityStats, Report};
+use super::{MeshOutput2, Options2, QualityStats, Report, StopReason};
 use crate::geometry::project::{project2, Projection};
 use crate::geometry::Implicit2;
 use crate::testing::Rng;
@@ -74,7 +74,7 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
     let mut bars: Vec<[usize; 2]> = Vec::new();
     let mut report = Report::default();
     let mut iter = 0;
-    let mut converged = false;
+    let mut stop = StopReason::IterationCap { max_iter: opts.max_iter };
     while iter < opts.max_iter {
         iter += 1;
         if let Some(cb) = &opts.progress {
@@ -93,7 +93,7 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
                 }
             }
             bars = set.into_iter().map(|(a, b)| [a, b]).collect();
-            report.flips += 1;
+            report.ops.flips += 1;
         }
         // 6. Forces (seed eq. 2.5, 2.6).
         let mut sl = 0.0;
@@ -137,13 +137,9 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
         }
         // 8. Termination.
         if max_move < opts.dptol {
-            converged = true;
-            report.stop_reason = format!("interior nodes moved less than dptol = {}", opts.dptol);
+            stop = StopReason::AtRest { dptol: opts.dptol };
             break;
         }
-    }
-    if !converged {
-        report.stop_reason = format!("iteration cap of {} reached", opts.max_iter);
     }
     // Final triangulation; drop unused points; inverted or flat triangles cannot occur in a
     // Delaunay triangulation but zero-area ones can at exact collinearity: drop them.
@@ -177,8 +173,7 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
             mesh.set_tag(v, VertexTag::Boundary);
         }
     }
-    report.iterations = iter;
-    report.converged = converged;
+    report.stopped(iter, stop);
     report.seconds = t0.elapsed().as_secs_f64();
     report.quality = QualityStats::of(&mesh);
     Ok(MeshOutput2 { mesh, report })

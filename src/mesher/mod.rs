@@ -6,7 +6,9 @@ pub mod image;
 mod input;
 mod internal;
 pub mod metric;
+mod options;
 mod planar;
+mod report;
 mod sharp;
 pub mod surface;
 mod truss;
@@ -14,32 +16,30 @@ mod volume;
 
 pub use crate::quality::tet_circumradius as circumradius;
 pub use metric::{Metric2, Metric3, MetricFn2, MetricGrid2, MetricStats};
-pub use planar::options::{Options2, ProgressFn, SizeFn2, Strategy};
-pub use planar::report::{area, boundary_deviation, size_deviation, QualityStats, Report};
+pub use options::ProgressFn;
+pub use planar::options::{Options2, SizeFn2, Strategy};
+pub use planar::report::{area, boundary_deviation, size_deviation, QualityStats};
+pub use report::{OpCounts, Report, StopReason, SurfaceStages};
 pub use volume::options::{Options3, SizeFn3};
-pub use volume::report::{boundary_deviation_3d, size_deviation_3d, QualityStats3, Report3};
+pub use volume::report::{boundary_deviation_3d, size_deviation_3d, QualityStats3};
 
 use crate::geometry::{Implicit2, Implicit3};
 use crate::topology::{TetMesh, TriMesh};
 use glam::DVec2;
 
-/// A 2-D mesh and the report of the run that made it.
+/// A mesh and the report of the run that made it.
 #[derive(Clone, Debug)]
-pub struct MeshOutput2 {
-    /// The triangle mesh (boundary vertices tagged `Boundary`, fixed points `Fixed`).
-    pub mesh: TriMesh<DVec2>,
+pub struct MeshOutput<M, Q> {
+    /// The mesh (boundary vertices tagged `Boundary`, fixed points `Fixed`).
+    pub mesh: M,
     /// Iterations, time, operation counts, quality statistics and why it stopped.
-    pub report: Report,
+    pub report: Report<Q>,
 }
 
-/// A 3-D mesh and the report of the run that made it.
-#[derive(Clone, Debug)]
-pub struct MeshOutput3 {
-    /// The tetrahedral mesh (boundary vertices tagged `Boundary`, fixed points `Fixed`).
-    pub mesh: TetMesh,
-    /// Iterations, time, operation counts, quality statistics and why it stopped.
-    pub report: Report3,
-}
+/// The output of the 2-D mesher: a triangle mesh and its report.
+pub type MeshOutput2 = MeshOutput<TriMesh<DVec2>, QualityStats>;
+/// The output of the 3-D mesher: a tetrahedral mesh and its report.
+pub type MeshOutput3 = MeshOutput<TetMesh, QualityStats3>;
 
 /// Meshes {d < 0} in 3-D with tetrahedra: force equilibrium with local swaps, density control
 /// and sliver removal inside the run (see the module notes of the 3-D mesher).
@@ -126,7 +126,7 @@ pub fn remesh_adapt_2d(
             }
         }
     }
-    let opts = Options2::uniform(hmin, (lo - pad).into(), (hi + pad).into())
+    let opts = Options2::uniform(hmin, lo - pad, hi + pad)
         .with_size(move |p| size.at(p))
         .with_fixed(corners)
         .with_max_iter(max_iter);

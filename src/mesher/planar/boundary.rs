@@ -209,12 +209,12 @@ pub(super) fn settle_boundary(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(
             let targets = [(g, m.dest(g)), (m.twin(e), m.origin(e))];
             for (h, w) in targets {
                 if m.collapse(h, m.pos(w)).is_ok() {
-                    ctx.report.collapses += 1;
+                    ctx.report.ops.collapses += 1;
                     break;
                 }
             }
         }
-        ctx.report.flips += ctx.make_delaunay(m);
+        ctx.report.ops.flips += ctx.make_delaunay(m);
     }
     // What could not be settled is reported, not hidden.
     ctx.report.boundary_nodes_off = m

@@ -136,7 +136,7 @@ pub(super) fn density_control(
         }
         let split_at = if m.check_split(h, mid).is_ok() { mid } else { (a + b) * 0.5 };
         if let Ok(v) = m.split_edge(h, split_at) {
-            ctx.report.splits += 1;
+            ctx.report.ops.splits += 1;
             changed = true;
             if split_at != mid {
                 let _ = m.relocate(v, mid);
@@ -180,7 +180,7 @@ pub(super) fn density_control(
     // alone, ex8 runs into the iteration cap. Large meshes skip it (at 10^6 triangles it cost
     // 25 ms a window, a seventh of the run): their windows end in a connectivity check anyway.
     if changed && global_pass {
-        ctx.report.flips += ctx.make_delaunay(m);
+        ctx.report.ops.flips += ctx.make_delaunay(m);
     }
     Ok(changed)
 }
@@ -222,7 +222,7 @@ pub(super) fn try_collapse(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, h: HalfEdgeId)
     }
     for (e, pos) in tries {
         if let Ok(v) = m.collapse(e, pos) {
-            ctx.report.collapses += 1;
+            ctx.report.ops.collapses += 1;
             legalize_vertex(ctx, m, v);
             return Ok(true);
         }
@@ -238,7 +238,7 @@ pub(super) fn legalize_vertex(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId
             stack.push(m.next(h));
         }
     }
-    ctx.report.flips += ctx.legalize(m, stack);
+    ctx.report.ops.flips += ctx.legalize(m, stack);
 }
 
 /// Triangles below this quality are repaired by collapsing their shortest edge.

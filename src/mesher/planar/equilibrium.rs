@@ -1,4 +1,5 @@
 use super::*;
+use crate::mesher::StopReason;
 
 /// Nodes moved farther than this many local sizes since their last check get their edges
 /// re-checked for the Delaunay property (the seed's ttol, applied per node).
@@ -49,7 +50,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     let mut slots: Vec<u32> = Vec::new();
     let mut plateau = truss::Plateau::every_window(QUALITY_PLATEAU, PLATEAU_WINDOWS);
     let mut rebuilds = 0usize;
-    let mut converged = false;
+    let mut stop = StopReason::IterationCap { max_iter: opts.max_iter };
     let mut iter = 0;
     let mut unit = h0;
     // The active set: between full sweeps only nodes that moved more than SETTLE local sizes
@@ -361,7 +362,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             if !bad.is_empty() {
                 write_back(m, &snap, &p);
                 let flips = ctx.legalize(m, bad);
-                ctx.report.flips += flips;
+                ctx.report.ops.flips += flips;
                 topo_changed |= flips > 0;
             }
         }
@@ -423,8 +424,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         }
         // Only a full sweep sees every node's step: a settled node's force may have grown since.
         if full && truss::stop::at_rest(max_move, opts.dptol, iter, window) {
-            converged = true;
-            ctx.report.stop_reason = format!("nodes moved less than dptol = {} (relative to h)", opts.dptol);
+            stop = StopReason::AtRest { dptol: opts.dptol };
             break;
         }
         if iter % window == 0 {
@@ -433,16 +433,15 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 eprintln!(
                     "iter {iter}: q mean {q:.5}, max move {max_move:.2e}, {} vertices, flips {} splits {} collapses {} left {} joined {}",
                     p.len(),
-                    ctx.report.flips,
-                    ctx.report.splits,
-                    ctx.report.collapses,
+                    ctx.report.ops.flips,
+                    ctx.report.ops.splits,
+                    ctx.report.ops.collapses,
                     ctx.left,
                     ctx.joined
                 );
             }
             if plateau.reached(q) {
-                converged = true;
-                ctx.report.stop_reason = "mean quality stopped improving".into();
+                stop = StopReason::QualityPlateau;
                 break;
             }
         }
@@ -470,13 +469,8 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     let cands = density_candidates(ctx, &snap, &p, unit, mu, band)?;
     // The global pass follows.
     density_control(ctx, m, cands, false)?;
-    ctx.report.flips += ctx.make_delaunay(m);
+    ctx.report.ops.flips += ctx.make_delaunay(m);
     settle_boundary(ctx, m)?;
-    ctx.report.iterations = iter;
-    ctx.report.converged = converged;
-    if !converged {
-        ctx.report.stop_reason =
-            format!("iteration cap of {} reached; the mesh is the last valid state", opts.max_iter);
-    }
+    ctx.report.stopped(iter, stop);
     Ok(())
 }

@@ -35,13 +35,14 @@ use crate::mesher::internal::{self, Internal};
 use crate::mesher::metric::{self, eval_metric, metric_triangle_q, Metric2, MetricFn2};
 use crate::mesher::truss::{self, bar_force, det_sum, Backoff, DensityBand, Marks, RestScale, CHUNK};
 use crate::mesher::MeshOutput2;
+use crate::mesher::Report;
 use crate::predicates::{orient2d, Sign};
 use crate::topology::{HalfEdgeId, Incidence, Level, TriMesh, VertexId, VertexTag};
 use crate::Error;
 use glam::DVec2;
 use options::Options2;
 use rayon::prelude::*;
-use report::{QualityStats, Report};
+use report::QualityStats;
 use slotmap::SecondaryMap;
 use std::time::Instant;
 
@@ -90,7 +91,7 @@ struct Ctx<'a> {
     projection: Projection,
     geps: f64,
     h_floor: f64,
-    report: Report,
+    report: Report<QualityStats>,
     left: usize,
     joined: usize,
     /// The run starts from a previous mesh (moving meshes, remeshing).
@@ -296,7 +297,7 @@ pub(crate) fn run_moving(
         projection,
         geps: 1e-3 * opts.h0,
         h_floor: survey.h_floor,
-        report: Report { corner_points: corners.len(), ..Report::default() },
+        report: Report { feature_points: corners.len(), ..Report::default() },
         left: 0,
         joined: 0,
         from_previous: start.is_some(),

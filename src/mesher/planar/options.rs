@@ -3,14 +3,12 @@
 use crate::geometry::project::Projection;
 use crate::geometry::Implicit2;
 use crate::mesher::metric::{Metric2, MetricFn2};
+use crate::mesher::options::{domain_builders, truss_builders, ProgressFn};
 use glam::DVec2;
 use std::sync::Arc;
 
 /// A relative size function h(x) (only ratios matter; h0 sets the scale).
 pub type SizeFn2 = Arc<dyn Fn(DVec2) -> f64 + Send + Sync>;
-
-/// Called with (iteration, iteration cap) as the run goes.
-pub type ProgressFn = Arc<dyn Fn(usize, usize) + Send + Sync>;
 
 /// How connectivity is maintained.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -25,6 +23,7 @@ pub enum Strategy {
 
 /// Options of [`crate::mesher::mesh_2d`].
 #[derive(Clone)]
+#[non_exhaustive]
 pub struct Options2 {
     /// Initial edge length h0 (the absolute scale of the relative size h).
     pub h0: f64,
@@ -98,11 +97,12 @@ impl Options2 {
     /// Default movement tolerance (seed: 0.001).
     pub const DEFAULT_DPTOL: f64 = 0.001;
 
-    /// Uniform size h0 in the box [min, max], every other option at its default.
-    pub fn uniform(h0: f64, min: [f64; 2], max: [f64; 2]) -> Self {
+    /// Uniform size h0 in the box [min, max] (arrays or vectors), every other option at its
+    /// default.
+    pub fn uniform(h0: f64, min: impl Into<DVec2>, max: impl Into<DVec2>) -> Self {
         Options2 {
             h0,
-            bbox: [DVec2::from(min), DVec2::from(max)],
+            bbox: [min.into(), max.into()],
             size: None,
             fixed: Vec::new(),
             max_iter: Self::DEFAULT_MAX_ITER,
@@ -125,39 +125,9 @@ impl Options2 {
         self.sharp_corners = on;
         self
     }
-    /// Sets the relative size function.
-    pub fn with_size(mut self, h: impl Fn(DVec2) -> f64 + Send + Sync + 'static) -> Self {
-        self.size = Some(Arc::new(h));
-        self
-    }
-    /// Sets the fixed points.
-    pub fn with_fixed(mut self, pts: impl IntoIterator<Item = [f64; 2]>) -> Self {
-        self.fixed = pts.into_iter().map(DVec2::from).collect();
-        self
-    }
-    /// Sets the iteration cap.
-    pub fn with_max_iter(mut self, n: usize) -> Self {
-        self.max_iter = n;
-        self
-    }
-    /// Sets the seed.
-    pub fn with_seed(mut self, s: u64) -> Self {
-        self.seed = s;
-        self
-    }
-    /// Sets the projection method.
-    pub fn with_projection(mut self, p: Projection) -> Self {
-        self.projection = p;
-        self
-    }
     /// Sets the connectivity strategy.
     pub fn with_strategy(mut self, s: Strategy) -> Self {
         self.strategy = s;
-        self
-    }
-    /// Sets the element limit.
-    pub fn with_max_elements(mut self, n: u64) -> Self {
-        self.max_elements = n;
         self
     }
     /// Sets the internal boundaries: the zero set of `d_i` (seed section 3.4).
@@ -172,9 +142,7 @@ impl Options2 {
         self.fscale = Self::METRIC_FSCALE;
         self
     }
-    /// Sets the progress callback.
-    pub fn with_progress(mut self, f: impl Fn(usize, usize) + Send + Sync + 'static) -> Self {
-        self.progress = Some(Arc::new(f));
-        self
-    }
 }
+
+truss_builders!(Options2);
+domain_builders!(Options2, DVec2);

@@ -1,5 +1,6 @@
 //! What a meshing run reports.
 
+use crate::mesher::report::Report;
 use crate::topology::{MeshPoint, TriMesh};
 
 /// Quality statistics of a triangle mesh.
@@ -50,72 +51,27 @@ impl QualityStats {
     }
 }
 
-/// The report of a meshing run.
-#[derive(Clone, Debug, Default)]
-pub struct Report {
-    /// Force iterations done.
-    pub iterations: usize,
-    /// True when the movement tolerance or the quality plateau ended the run; false when the
-    /// iteration cap did (the mesh is still valid: the best found).
-    pub converged: bool,
-    /// Why the run stopped.
-    pub stop_reason: String,
-    /// Wall time in seconds.
-    pub seconds: f64,
-    /// Edge flips done.
-    pub flips: usize,
-    /// Edge splits done.
-    pub splits: usize,
-    /// Edge collapses done.
-    pub collapses: usize,
-    /// Boundary nodes left farther than 1e-3 h0 from d = 0 (projection and merging refused;
-    /// 0 in a good run).
-    pub boundary_nodes_off: usize,
-    /// Internal-boundary nodes left farther than 1e-3 h0 from d_I = 0 (0 in a good run).
-    pub internal_nodes_off: usize,
-    /// Sharp corners of the domain found and held fixed (besides the given fixed points).
-    pub corner_points: usize,
-    /// Quality of the result.
-    pub quality: QualityStats,
-    /// With a metric: metric edge lengths and metric quality of the result.
-    pub metric: Option<crate::mesher::metric::MetricStats>,
-}
-
-impl std::fmt::Display for Report {
+impl std::fmt::Display for Report<QualityStats> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let q = &self.quality;
         writeln!(
             f,
             "{} vertices, {} triangles in {:.3} s, {} iterations ({})",
-            q.vertices, q.triangles, self.seconds, self.iterations, self.stop_reason
+            q.vertices, q.triangles, self.seconds, self.iterations, self.stop
         )?;
         writeln!(
             f,
             "q min {:.4}, q mean {:.4}, angles {:.1} to {:.1} degrees",
             q.q_min, q.q_mean, q.angle_min, q.angle_max
         )?;
-        write!(f, "{} flips, {} splits, {} collapses", self.flips, self.splits, self.collapses)?;
-        if self.corner_points > 0 {
-            write!(f, "\n{} sharp corners held fixed", self.corner_points)?;
-        }
-        if self.boundary_nodes_off > 0 {
-            write!(
-                f,
-                "\nwarning: {} boundary nodes are off the boundary (more than 1e-3 h0)",
-                self.boundary_nodes_off
-            )?;
+        write!(f, "{} flips, {} splits, {} collapses", self.ops.flips, self.ops.splits, self.ops.collapses)?;
+        if self.feature_points > 0 {
+            write!(f, "\n{} sharp corners held fixed", self.feature_points)?;
         }
         if let Some(m) = &self.metric {
             write!(f, "\nmetric: {m}")?;
         }
-        if self.internal_nodes_off > 0 {
-            write!(
-                f,
-                "\nwarning: {} internal-boundary nodes are off their curve (more than 1e-3 h0)",
-                self.internal_nodes_off
-            )?;
-        }
-        Ok(())
+        self.warnings(f)
     }
 }
 

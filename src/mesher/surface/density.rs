@@ -6,6 +6,7 @@
 use super::geom::{faces_out, project, SizeField};
 use super::improve::{flip_pass, smooth_tangential, FlipGoal, FOLD_COS};
 use crate::geometry::Implicit3;
+use crate::mesher::report::OpCounts;
 use crate::quality::triangle_q3;
 use crate::topology::{HalfEdgeId, TriMesh, VertexId};
 use crate::Error;
@@ -20,17 +21,6 @@ const REMESH_LO: f64 = 0.8;
 /// Density control during the force loop: wider hysteresis so nodes do not go in and out.
 const DENSITY_HI: f64 = 1.6;
 const DENSITY_LO: f64 = 0.5;
-
-/// Counts of operations done, for the report.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct OpCounts {
-    /// Edge splits.
-    pub splits: usize,
-    /// Edge collapses.
-    pub collapses: usize,
-    /// Edge flips.
-    pub flips: usize,
-}
 
 /// Every edge as one half-edge and its two end vertices, in arena order: a stable list to walk
 /// while the mesh changes. [`edge_now`] finds the edge again.

@@ -2,11 +2,12 @@
 //! 2.6), forward Euler moves in the tangent plane, projection onto phi = 0, quality flips, and
 //! density control with hysteresis; it keeps the best mesh seen by a quality score.
 
-use super::density::{density_control, OpCounts};
+use super::density::density_control;
 use super::geom::{self, normal, SizeField};
 use super::improve::{flip_pass, move_if_no_fold_g, try_flip, FlipGoal};
 use super::options::SurfaceOptions;
 use crate::geometry::Implicit3;
+use crate::mesher::report::OpCounts;
 use crate::mesher::truss::{self, backtrack, bar_force, RestScale};
 use crate::topology::{FaceId, TriMesh, VertexId};
 use crate::Error;
@@ -82,7 +83,7 @@ pub(super) fn force_loop(
     let mut since_flips = 0.0;
     let mut run =
         ForceRun { mesh: TriMesh::new(), iterations: 0, kept: 0, converged: false, plateau: false, undone: 0 };
-    for it in 1..=opts.max_iterations {
+    for it in 1..=opts.max_iter {
         run.iterations = it;
         let moved = force_step(&mut m, phi, size, opts, tol, &mut run.undone)?;
         since_flips += moved;
@@ -90,7 +91,7 @@ pub(super) fn force_loop(
             counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 5);
             since_flips = 0.0;
         }
-        let late = it + 3 * DENSITY_EVERY > opts.max_iterations;
+        let late = it + 3 * DENSITY_EVERY > opts.max_iter;
         if it % DENSITY_EVERY == 0 && !late && density_control(&mut m, phi, size, tol, counts)? > 0 {
             since_flips = 0.0;
         }
@@ -205,7 +206,7 @@ fn force_step(
         .map(|(&p, &fi)| {
             let n = normal(phi, p);
             let f = fi - fi.dot(n) * n;
-            geom::project_grad(phi, p + opts.dt * f, tol)
+            geom::project_grad(phi, p + opts.deltat * f, tol)
         })
         .collect::<Result<_, Error>>()?;
     let mut moved = 0.0f64;

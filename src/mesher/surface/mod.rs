@@ -36,7 +36,7 @@ mod start;
 
 pub use geom::SizeField;
 pub use options::{SurfaceOptions, SurfaceSize};
-pub use report::{SurfaceQuality, SurfaceReport};
+pub use report::SurfaceQuality;
 
 /// The marching-tetrahedra start: the triangulated zero set of phi on a background grid.
 pub mod march {
@@ -47,18 +47,20 @@ pub mod march {
 /// conditions the engine cannot know (no fold against grad phi, quality, valence), and the
 /// smoothing, equalising and subdivision built on them.
 pub mod ops {
-    pub use super::density::{collapse_short, edge_list, edge_now, relayout, split_long, subdivide, OpCounts};
+    pub use super::density::{collapse_short, edge_list, edge_now, relayout, split_long, subdivide};
     pub use super::improve::{
         equalize_lengths, flip_pass, move_if_no_fold, move_if_no_fold_g, smooth_tangential, try_flip, FlipGoal,
         FOLD_COS,
     };
     pub use super::start::components;
+    pub use crate::mesher::report::OpCounts;
 }
 
 use crate::geometry::Implicit3;
+use crate::mesher::report::{OpCounts, Report, SurfaceStages};
+use crate::mesher::StopReason;
 use crate::topology::{TriMesh, VertexId};
 use crate::Error;
-use density::OpCounts;
 use geom::project;
 use glam::DVec3;
 use improve::{flip_pass, FlipGoal};
@@ -72,7 +74,7 @@ pub struct SurfaceOutput {
     /// The size field used.
     pub size: SizeField,
     /// What happened and the quality figures.
-    pub report: SurfaceReport,
+    pub report: Report<SurfaceQuality>,
 }
 
 /// Projection tolerance, in units of the smallest size (|phi| / |grad phi|).
@@ -80,14 +82,15 @@ const PROJECT_TOL: f64 = 1e-9;
 
 /// Meshes the closed surface phi = 0 inside `opts.bbox` (phi < 0 inside, so normals point
 /// along grad phi).
-pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
+pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
     let start = std::time::Instant::now();
     opts.check()?;
     let size = opts.size_field(phi)?;
     let hmin = size.min();
     let tol = PROJECT_TOL * hmin;
     let (mut m, levels) = start::start_mesh(phi, opts.bbox, hmin, tol)?;
-    let mut report = SurfaceReport::default();
+    let mut report: Report<SurfaceQuality> = Report::default();
+    let mut st = SurfaceStages::default();
     let stages = levels as usize + 3;
     let tick = |done: usize| {
         if let Some(cb) = &opts.progress {
@@ -95,11 +98,11 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
         }
     };
     tick(1);
-    report.stage_seconds[0] = start.elapsed().as_secs_f64();
-    let mut clock = report.stage_seconds[0];
-    let mut lap = |report: &mut SurfaceReport, k: usize| {
+    st.stage_seconds[0] = start.elapsed().as_secs_f64();
+    let mut clock = st.stage_seconds[0];
+    let mut lap = |st: &mut SurfaceStages, k: usize| {
         let now = start.elapsed().as_secs_f64();
-        report.stage_seconds[k] += now - clock;
+        st.stage_seconds[k] += now - clock;
         clock = now;
     };
     let mut counts = OpCounts::default();
@@ -115,34 +118,37 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
         let passes = if level > 0 || coarsest { density::REMESH_PASSES } else { 0 };
         for _ in 0..passes {
             density::remesh_pass(&mut m, phi, &level_size, tol, &mut counts)?;
-            report.remesh_passes += 1;
+            st.remesh_passes += 1;
         }
         counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
-        lap(&mut report, 1);
+        lap(&mut st, 1);
         let patience = equilibrium::patience(coarsest, levels);
         let run = equilibrium::force_loop(m, phi, &level_size, opts, tol, patience, &mut counts)?;
         m = run.mesh;
-        report.undone_moves += run.undone;
+        counts.undone += run.undone;
         if level == 0 {
-            report.iterations = run.iterations;
-            report.converged = run.converged;
-            report.plateau = run.plateau;
+            let stop = if run.converged {
+                StopReason::AtRest { dptol: opts.dptol }
+            } else if run.plateau {
+                StopReason::QualityPlateau
+            } else {
+                StopReason::IterationCap { max_iter: opts.max_iter }
+            };
+            report.stopped(run.iterations, stop);
             kept = run.kept;
         } else {
-            report.coarse_iterations += run.iterations;
+            st.coarse_iterations += run.iterations;
         }
-        lap(&mut report, 2);
+        lap(&mut st, 2);
         if level > 0 {
             counts.splits += density::subdivide(&mut m, phi, tol)?;
             m = density::relayout(&m)?;
         }
         tick(stages - 1 - level as usize);
     }
-    // The truss equilibrium balances forces; a few sweeps then even out the lengths themselves
-    // (measured on the unit sphere at h = 0.1 on the build of 2026-11-25: size deviation 5.6% ->
-    // 5.3%, mean q 0.986 -> 0.990).
-    report.equalize_sweeps += improve::equalize(&mut m, phi, &size, opts.dptol, tol)?;
-    lap(&mut report, 3);
+    // The truss equilibrium balances forces; a few sweeps then even out the lengths themselves.
+    st.equalize_sweeps += improve::equalize(&mut m, phi, &size, opts.dptol, tol)?;
+    lap(&mut st, 3);
     tick(stages);
     // Final projection to the tight tolerance (the loop already projects every step).
     let ids: Vec<VertexId> = m.vertex_ids().collect();
@@ -152,7 +158,8 @@ pub fn mesh_implicit_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Resu
     for (&v, &p) in ids.iter().zip(&finals) {
         m.set_pos_unchecked(v, p);
     }
-    report.kept_iteration = kept;
+    st.kept_iteration = kept;
+    report.stages = Some(st);
     report.ops = counts;
     report.quality = SurfaceQuality::measure(&m, phi, &size);
     report.seconds = start.elapsed().as_secs_f64();

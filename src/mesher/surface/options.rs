@@ -4,7 +4,7 @@
 use super::geom::SizeField;
 use super::start::MAX_GRID_NODES;
 use crate::geometry::Implicit3;
-use crate::mesher::ProgressFn;
+use crate::mesher::options::{truss_builders, ProgressFn};
 use crate::size::{auto_size_3d, SizeParams};
 use crate::Error;
 use glam::DVec3;
@@ -26,7 +26,7 @@ pub enum SurfaceSize {
     },
 }
 
-/// Options of [`mesh_implicit_surface`](super::mesh_implicit_surface). Defaults: uniform size, 1000 iterations, Fscale 1.2,
+/// Options of [`mesh_surface`](super::mesh_surface). Defaults: uniform size, 1000 iterations, Fscale 1.2,
 /// time step 0.3, movement tolerance 1e-3 h.
 #[derive(Clone)]
 #[non_exhaustive]
@@ -38,11 +38,11 @@ pub struct SurfaceOptions {
     /// Size rule.
     pub size: SurfaceSize,
     /// Iteration cap of each force loop (one per level of the coarse-to-fine start).
-    pub max_iterations: usize,
+    pub max_iter: usize,
     /// Bar lengths are pushed toward Fscale h (seed eq. 2.6).
     pub fscale: f64,
     /// Time step of the forward Euler move.
-    pub dt: f64,
+    pub deltat: f64,
     /// Stop when no node moves more than dptol h in an iteration.
     pub dptol: f64,
     /// Progress callback, called as (stages done, stages): the start, each level of the
@@ -56,9 +56,9 @@ impl std::fmt::Debug for SurfaceOptions {
             .field("h0", &self.h0)
             .field("bbox", &self.bbox)
             .field("size", &self.size)
-            .field("max_iterations", &self.max_iterations)
+            .field("max_iter", &self.max_iter)
             .field("fscale", &self.fscale)
-            .field("dt", &self.dt)
+            .field("deltat", &self.deltat)
             .field("dptol", &self.dptol)
             .field("progress", &self.progress.as_ref().map(|_| "fn"))
             .finish()
@@ -67,23 +67,23 @@ impl std::fmt::Debug for SurfaceOptions {
 
 impl SurfaceOptions {
     /// Default iteration cap.
-    pub const DEFAULT_MAX_ITERATIONS: usize = 1000;
+    pub const DEFAULT_MAX_ITER: usize = 1000;
     /// Default Fscale.
     pub const DEFAULT_FSCALE: f64 = 1.2;
     /// Default time step.
-    pub const DEFAULT_DT: f64 = 0.3;
+    pub const DEFAULT_DELTAT: f64 = 0.3;
     /// Default movement tolerance.
     pub const DEFAULT_DPTOL: f64 = 1e-3;
 
-    /// Uniform size `h0` for a surface inside `bbox`.
-    pub fn uniform(h0: f64, bbox: [DVec3; 2]) -> Self {
+    /// Uniform size `h0` for a surface inside the box [min, max] (arrays or vectors).
+    pub fn uniform(h0: f64, min: impl Into<DVec3>, max: impl Into<DVec3>) -> Self {
         SurfaceOptions {
             h0,
-            bbox,
+            bbox: [min.into(), max.into()],
             size: SurfaceSize::Uniform,
-            max_iterations: Self::DEFAULT_MAX_ITERATIONS,
+            max_iter: Self::DEFAULT_MAX_ITER,
             fscale: Self::DEFAULT_FSCALE,
-            dt: Self::DEFAULT_DT,
+            deltat: Self::DEFAULT_DELTAT,
             dptol: Self::DEFAULT_DPTOL,
             progress: None,
         }
@@ -91,16 +91,6 @@ impl SurfaceOptions {
     /// Sizes from curvature (see [`SurfaceSize::Curvature`]).
     pub fn with_curvature(mut self, k: f64, g: f64, hmax: f64) -> Self {
         self.size = SurfaceSize::Curvature { k, g, hmax };
-        self
-    }
-    /// Sets the progress callback (see [`SurfaceOptions::progress`]).
-    pub fn with_progress(mut self, f: impl Fn(usize, usize) + Send + Sync + 'static) -> Self {
-        self.progress = Some(std::sync::Arc::new(f));
-        self
-    }
-    /// Sets the iteration cap.
-    pub fn with_max_iterations(mut self, n: usize) -> Self {
-        self.max_iterations = n;
         self
     }
 
@@ -120,10 +110,10 @@ impl SurfaceOptions {
             }
         }
         let ok = |v: f64| v > 0.0 && v.is_finite();
-        if !(ok(self.fscale) && ok(self.dt) && ok(self.dptol)) {
+        if !(ok(self.fscale) && ok(self.deltat) && ok(self.dptol)) {
             return Err(Error::Invalid(format!(
-                "fscale {}, dt {}, dptol {} must be positive and finite",
-                self.fscale, self.dt, self.dptol
+                "fscale {}, deltat {}, dptol {} must be positive and finite",
+                self.fscale, self.deltat, self.dptol
             )));
         }
         Ok(())
@@ -151,3 +141,5 @@ impl SurfaceOptions {
         })
     }
 }
+
+truss_builders!(SurfaceOptions);

@@ -3,6 +3,7 @@
 
 use super::geom::{residual, SizeField};
 use crate::geometry::Implicit3;
+use crate::mesher::report::Report;
 use crate::quality::{triangle_angles_deg, triangle_q_from_lengths};
 use crate::topology::{Level, TriMesh};
 use glam::DVec3;
@@ -106,39 +107,10 @@ impl SurfaceQuality {
     }
 }
 
-/// What a surface meshing run did and how good the result is.
-#[derive(Clone, Debug, Default)]
-pub struct SurfaceReport {
-    /// Remeshing passes that made the start mesh (split, collapse, flip, smooth).
-    pub remesh_passes: usize,
-    /// Force iterations on the finest level.
-    pub iterations: usize,
-    /// Force iterations on the coarser levels, before their subdivisions (0 without).
-    pub coarse_iterations: usize,
-    /// Whether the node movement fell below the tolerance before the cap.
-    pub converged: bool,
-    /// Whether the loop stopped because the quality score had not improved for a while.
-    pub plateau: bool,
-    /// The iteration whose mesh was kept (the best by quality).
-    pub kept_iteration: usize,
-    /// Operation counts.
-    pub ops: super::density::OpCounts,
-    /// Length-equalising sweeps after the force iteration.
-    pub equalize_sweeps: usize,
-    /// Moves undone because they would fold a triangle.
-    pub undone_moves: usize,
-    /// The kept mesh's figures.
-    pub quality: SurfaceQuality,
-    /// Wall time, seconds.
-    pub seconds: f64,
-    /// Wall time of each stage, seconds: the start (marching and curvature), the remeshing
-    /// levels with their subdivisions, the force loop, the length equalisation.
-    pub stage_seconds: [f64; 4],
-}
-
-impl fmt::Display for SurfaceReport {
+impl fmt::Display for Report<SurfaceQuality> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let q = &self.quality;
+        let st = self.stages.unwrap_or_default();
         writeln!(
             f,
             "surface: {} vertices, {} triangles, Euler characteristic {} ({}closed manifold, {} inward faces)",
@@ -152,21 +124,15 @@ impl fmt::Display for SurfaceReport {
             f,
             "iterations {} ({}), kept {}, on coarser levels {}; remesh passes {}, equalising sweeps {}; splits {}, collapses {}, flips {}, undone moves {}",
             self.iterations,
-            if self.converged {
-                "converged"
-            } else if self.plateau {
-                "quality plateau"
-            } else {
-                "cap reached"
-            },
-            self.kept_iteration,
-            self.coarse_iterations,
-            self.remesh_passes,
-            self.equalize_sweeps,
+            self.stop,
+            st.kept_iteration,
+            st.coarse_iterations,
+            st.remesh_passes,
+            st.equalize_sweeps,
             self.ops.splits,
             self.ops.collapses,
             self.ops.flips,
-            self.undone_moves
+            self.ops.undone
         )?;
         writeln!(
             f,
@@ -186,10 +152,10 @@ impl fmt::Display for SurfaceReport {
             q.centroid_deviation_max,
             q.centroid_deviation_mean,
             self.seconds,
-            self.stage_seconds[0],
-            self.stage_seconds[1],
-            self.stage_seconds[2],
-            self.stage_seconds[3]
+            st.stage_seconds[0],
+            st.stage_seconds[1],
+            st.stage_seconds[2],
+            st.stage_seconds[3]
         )
     }
 }

@@ -51,7 +51,7 @@ pub(super) fn surface_flips(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Err
             }
         }
     }
-    ctx.report.flips += n;
+    ctx.report.ops.flips += n;
     Ok(n)
 }
 
@@ -168,7 +168,7 @@ pub(super) fn clear_the_way(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId, q: DVe
             }
             let nb = m.tet(t).adj.iter().filter(|a| a.is_none()).count();
             if nb >= 2 && m.remove_boundary_tet(t).is_ok() {
-                ctx.report.removed += 1;
+                ctx.report.ops.removed += 1;
                 continue;
             }
             if try_swaps(ctx, m, t)? {
@@ -209,7 +209,7 @@ fn merge_into_boundary_neighbour(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -
     }
     if let Some((_, plan)) = best {
         m.apply_patch(plan);
-        ctx.report.collapses += 1;
+        ctx.report.ops.collapses += 1;
         return Ok(true);
     }
     Ok(false)

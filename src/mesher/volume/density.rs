@@ -56,11 +56,11 @@ pub(super) fn density_control(
         }
         let split = m.split_edge(t, e, at).or_else(|_| m.split_edge(t, e, mid));
         if let Ok(v) = split {
-            ctx.report.splits += 1;
+            ctx.report.ops.splits += 1;
             changed = true;
             touched[i as usize] = true;
             touched[j as usize] = true;
-            ctx.report.flips += lawson_around(m, v);
+            ctx.report.ops.flips += lawson_around(m, v);
         }
     }
     short.sort_by(|x, y| x.0.total_cmp(&y.0).then((x.1, x.2).cmp(&(y.1, y.2))));
@@ -94,12 +94,12 @@ pub(super) fn density_control(
             }
         }
         if let Some(t) = done {
-            ctx.report.collapses += 1;
+            ctx.report.ops.collapses += 1;
             changed = true;
             touched[i as usize] = true;
             touched[j as usize] = true;
             let v = m.tet(t).v[0];
-            ctx.report.flips += lawson_around(m, v);
+            ctx.report.ops.flips += lawson_around(m, v);
         }
     }
     Ok(changed)

@@ -10,6 +10,7 @@ use super::report::QualityStats3;
 use super::snapshot::{mean_rr, write_back, PhaseClock, Snapshot, BOUNDARY, FIXED, INTERIOR};
 use super::{Ctx, CHUNK, GEPS};
 use crate::mesher::truss::{self, bar_force, det_sum, RestScale};
+use crate::mesher::StopReason;
 use crate::quality::{dihedral_quality_cos_bounds, tet_dihedral_quality, tet_dihedral_quality_below};
 use crate::topology::{TetId, TetMesh, VertexTag};
 use crate::Error;
@@ -99,7 +100,8 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
     };
     let mut hv = sizes(ctx, &p)?;
     let mut plateau = truss::Plateau::over_span(QUALITY_PLATEAU, PLATEAU_WINDOWS);
-    let (mut converged, mut iter) = (false, 0);
+    let mut stop = StopReason::IterationCap { max_iter: opts.max_iter };
+    let mut iter = 0;
     let mut tried: SecondaryMap<TetId, usize> = SecondaryMap::new();
     let mut clock = PhaseClock::new();
     let mut stuck: Vec<TetId> = Vec::new();
@@ -194,7 +196,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             }
             write_back(m, &snap, &p);
             let flips = m.lawson(stack);
-            ctx.report.flips += flips;
+            ctx.report.ops.flips += flips;
             topo_changed |= flips > 0;
         }
         clock.lap("delaunay flips");
@@ -267,7 +269,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
                 // With two boundary faces, the edge they share lies in this tet only.
                 let local = m.tet(t).adj.map(|a| a.is_some());
                 if m.remove_boundary_tet(t).is_ok() {
-                    ctx.report.removed += 1;
+                    ctx.report.ops.removed += 1;
                     if faces <= 2 {
                         joined.extend(snap.tets[k].iter().map(|&i| i as usize));
                         gone.push(k);
@@ -371,8 +373,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         }
         clock.lap("snapshot");
         if truss::stop::at_rest(max_move, opts.dptol, iter, DENSITY_EVERY) {
-            converged = true;
-            ctx.report.stop_reason = format!("nodes moved less than dptol = {} (relative to h)", opts.dptol);
+            stop = StopReason::AtRest { dptol: opts.dptol };
             break;
         }
         if iter % DENSITY_EVERY == 0 {
@@ -409,15 +410,14 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
                     "iter {iter}: rr mean {q:.5}, max move {max_move:.2e}, {} vertices, {} tets, flips {} splits {} collapses {} removed {}",
                     p.len(),
                     snap.tets.len(),
-                    ctx.report.flips,
-                    ctx.report.splits,
-                    ctx.report.collapses,
-                    ctx.report.removed
+                    ctx.report.ops.flips,
+                    ctx.report.ops.splits,
+                    ctx.report.ops.collapses,
+                    ctx.report.ops.removed
                 );
             }
             if plateau.reached(q) {
-                converged = true;
-                ctx.report.stop_reason = "mean quality stopped improving".into();
+                stop = StopReason::QualityPlateau;
                 break;
             }
         }
@@ -428,11 +428,6 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
     }
     write_back(m, &snap, &p);
     m.take_journal();
-    ctx.report.iterations = iter;
-    ctx.report.converged = converged;
-    if !converged {
-        ctx.report.stop_reason =
-            format!("iteration cap of {} reached; the mesh is the last valid state", opts.max_iter);
-    }
+    ctx.report.stopped(iter, stop);
     Ok(())
 }

@@ -184,15 +184,15 @@ pub(super) fn try_swaps(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> Result<bool
             if m.remove_boundary_tet(t).is_err() {
                 return Ok(false);
             }
-            ctx.report.removed += 1;
+            ctx.report.ops.removed += 1;
         }
         Some(Swap::Flip(plan)) => {
             m.apply_patch(plan);
-            ctx.report.flips += 1;
+            ctx.report.ops.flips += 1;
         }
         Some(Swap::Collapse(plan)) => {
             m.apply_patch(plan);
-            ctx.report.collapses += 1;
+            ctx.report.ops.collapses += 1;
         }
         None => return Ok(false),
     }
@@ -235,7 +235,7 @@ fn perturb_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, 
         }
     }
     if best.0 > f0 + 1e-9 && star_rr(&star, best.1) > star_rr(&star, x0) - RR_SLACK && m.relocate(v, best.1).is_ok() {
-        ctx.report.smoothings += 1;
+        ctx.report.ops.smoothings += 1;
         return Ok(true);
     }
     Ok(false)
@@ -285,7 +285,7 @@ pub(super) fn mean_quality_round(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize
         let Some(s) = m.edge_shell_of(a, b) else { continue };
         if let Some(plan) = mean_ring_patch(m, &s, mean) {
             m.apply_patch(plan);
-            ctx.report.flips += 1;
+            ctx.report.ops.flips += 1;
             changes += 1;
         }
     }
@@ -317,7 +317,7 @@ pub(super) fn mean_quality_round(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize
             if gain > RR_GAIN {
                 if let Ok(plan) = m.check_flip23(t, f) {
                     m.apply_patch(plan);
-                    ctx.report.flips += 1;
+                    ctx.report.ops.flips += 1;
                     changes += 1;
                     break;
                 }

@@ -46,6 +46,7 @@ mod tests;
 use crate::geometry::project::{project3, ProjectError, Projection};
 use crate::geometry::Implicit3;
 use crate::mesher::MeshOutput3;
+use crate::mesher::Report;
 use crate::quality::tet_dihedral_quality;
 use crate::topology::{Level, TetId};
 use crate::Error;
@@ -55,7 +56,7 @@ use equilibrium::{equilibrium, repeat_rounds};
 use glam::DVec3;
 use improve::{improve, mean_quality_round};
 use options::Options3;
-use report::{QualityStats3, Report3};
+use report::QualityStats3;
 use start::{eval_d, eval_h_floor, initial_mesh, splitmix_unit, survey};
 use std::time::Instant;
 
@@ -78,7 +79,7 @@ struct Ctx<'a> {
     opts: &'a Options3,
     projection: Projection,
     h_floor: f64,
-    report: Report3,
+    report: Report<QualityStats3>,
     rng: u64,
     trace: bool,
     /// The worst tq at the start of the last polish round.
@@ -135,7 +136,7 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
         opts,
         projection,
         h_floor: survey.h_floor,
-        report: Report3::default(),
+        report: Report::default(),
         rng: opts.seed ^ 0x7472_7573_736d_6533,
         trace: std::env::var_os("TRUSSMESH_TRACE").is_some(),
         polish_worst: f64::NEG_INFINITY,

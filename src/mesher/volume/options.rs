@@ -4,13 +4,14 @@ use crate::geometry::project::Projection;
 use glam::DVec3;
 use std::sync::Arc;
 
-use crate::mesher::ProgressFn;
+use crate::mesher::options::{domain_builders, setters, truss_builders, ProgressFn};
 
 /// A relative size function h(x) in 3-D (only ratios matter; h0 sets the scale).
 pub type SizeFn3 = Arc<dyn Fn(DVec3) -> f64 + Send + Sync>;
 
 /// Options of [`crate::mesher::mesh_3d`].
 #[derive(Clone)]
+#[non_exhaustive]
 pub struct Options3 {
     /// Initial edge length h0 (the absolute scale of the relative size h).
     pub h0: f64,
@@ -76,10 +77,10 @@ impl Options3 {
     pub const DEFAULT_POLISH_ROUNDS: usize = 8;
 
     /// Uniform size h0 in the box [min, max], every other option at its default.
-    pub fn uniform(h0: f64, min: [f64; 3], max: [f64; 3]) -> Self {
+    pub fn uniform(h0: f64, min: impl Into<DVec3>, max: impl Into<DVec3>) -> Self {
         Options3 {
             h0,
-            bbox: [DVec3::from(min), DVec3::from(max)],
+            bbox: [min.into(), max.into()],
             size: None,
             fixed: Vec::new(),
             max_iter: Self::DEFAULT_MAX_ITER,
@@ -100,44 +101,11 @@ impl Options3 {
         self.sharp_edges = on;
         self
     }
-    /// Sets the relative size function.
-    pub fn with_size(mut self, h: impl Fn(DVec3) -> f64 + Send + Sync + 'static) -> Self {
-        self.size = Some(Arc::new(h));
-        self
-    }
-    /// Sets the fixed points.
-    pub fn with_fixed(mut self, pts: impl IntoIterator<Item = [f64; 3]>) -> Self {
-        self.fixed = pts.into_iter().map(DVec3::from).collect();
-        self
-    }
-    /// Sets the iteration cap.
-    pub fn with_max_iter(mut self, n: usize) -> Self {
-        self.max_iter = n;
-        self
-    }
-    /// Sets the seed.
-    pub fn with_seed(mut self, s: u64) -> Self {
-        self.seed = s;
-        self
-    }
-    /// Sets the projection method.
-    pub fn with_projection(mut self, p: Projection) -> Self {
-        self.projection = p;
-        self
-    }
-    /// Sets the element limit.
-    pub fn with_max_elements(mut self, n: u64) -> Self {
-        self.max_elements = n;
-        self
-    }
-    /// Sets the internal pressure.
-    pub fn with_fscale(mut self, f: f64) -> Self {
-        self.fscale = f;
-        self
-    }
-    /// Sets the progress callback.
-    pub fn with_progress(mut self, f: impl Fn(usize, usize) + Send + Sync + 'static) -> Self {
-        self.progress = Some(Arc::new(f));
-        self
-    }
 }
+
+truss_builders!(Options3);
+domain_builders!(Options3, DVec3);
+setters!(Options3 {
+    /// Sets the number of sliver removal rounds after the force equilibrium.
+    with_polish_rounds => polish_rounds: usize,
+});

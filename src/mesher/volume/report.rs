@@ -1,6 +1,7 @@
 //! What a 3-D meshing run reports.
 
 use crate::geometry::Implicit3;
+use crate::mesher::report::Report;
 use crate::topology::{TetId, TetMesh};
 use glam::DVec3;
 
@@ -67,43 +68,13 @@ impl QualityStats3 {
     }
 }
 
-/// The report of a 3-D meshing run.
-#[derive(Clone, Debug, Default)]
-pub struct Report3 {
-    /// Force iterations done.
-    pub iterations: usize,
-    /// True when the movement tolerance or the quality plateau ended the force iterations;
-    /// false when the iteration cap did (the mesh is still valid).
-    pub converged: bool,
-    /// Why the force iterations stopped.
-    pub stop_reason: String,
-    /// Wall time in seconds.
-    pub seconds: f64,
-    /// 2-3, 3-2, 4-4 flips, edge removals and boundary edge flips done.
-    pub flips: usize,
-    /// Edge splits done.
-    pub splits: usize,
-    /// Edge collapses done.
-    pub collapses: usize,
-    /// Tets squashed against the boundary that were dropped from it.
-    pub removed: usize,
-    /// Vertex moves accepted by the optimisation-based smoothing and the perturbations.
-    pub smoothings: usize,
-    /// Boundary nodes left farther than 1e-3 h0 from d = 0 (0 in a good run).
-    pub boundary_nodes_off: usize,
-    /// Points the start put on sharp edges of the domain and held fixed.
-    pub sharp_edge_points: usize,
-    /// Quality of the result.
-    pub quality: QualityStats3,
-}
-
-impl std::fmt::Display for Report3 {
+impl std::fmt::Display for Report<QualityStats3> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let q = &self.quality;
         writeln!(
             f,
             "{} vertices, {} tetrahedra in {:.3} s, {} iterations ({})",
-            q.vertices, q.tets, self.seconds, self.iterations, self.stop_reason
+            q.vertices, q.tets, self.seconds, self.iterations, self.stop
         )?;
         writeln!(
             f,
@@ -113,19 +84,12 @@ impl std::fmt::Display for Report3 {
         write!(
             f,
             "{} flips, {} splits, {} collapses, {} smoothing moves",
-            self.flips, self.splits, self.collapses, self.smoothings
+            self.ops.flips, self.ops.splits, self.ops.collapses, self.ops.smoothings
         )?;
-        if self.sharp_edge_points > 0 {
-            write!(f, "\n{} points held on sharp edges", self.sharp_edge_points)?;
+        if self.feature_points > 0 {
+            write!(f, "\n{} points held on sharp edges", self.feature_points)?;
         }
-        if self.boundary_nodes_off > 0 {
-            write!(
-                f,
-                "\nwarning: {} boundary nodes are off the boundary (more than 1e-3 h0)",
-                self.boundary_nodes_off
-            )?;
-        }
-        Ok(())
+        self.warnings(f)
     }
 }
 

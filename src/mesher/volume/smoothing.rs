@@ -66,7 +66,7 @@ pub(super) fn star_min(star: &[([DVec3; 4], usize)], x: DVec3) -> (f64, usize) {
 pub(super) fn smooth_vertex(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -> Result<bool, Error> {
     if let Some(x) = smooth_target(ctx, m, v)? {
         if m.relocate(v, x).is_ok() {
-            ctx.report.smoothings += 1;
+            ctx.report.ops.smoothings += 1;
             return Ok(true);
         }
     }
@@ -338,6 +338,6 @@ pub(super) fn coloured_smoothing(
             }
         }
     }
-    ctx.report.smoothings += moved;
+    ctx.report.ops.smoothings += moved;
     Ok(moved)
 }

@@ -252,7 +252,7 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Erro
             }
         }
         pts = kept;
-        ctx.report.sharp_edge_points = creases.len();
+        ctx.report.feature_points = creases.len();
         ctx.fixed.extend(creases);
     }
     pts.extend(ctx.fixed.iter().copied());

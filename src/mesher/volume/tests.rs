@@ -3,11 +3,11 @@
 
 use super::carve::{count_pieces, drop_specks};
 use super::options::Options3;
-use super::report::Report3;
 use super::smoothing::{star_rr_sum, StarRr};
 use super::snapshot::{Snapshot, DEAD};
 use super::Ctx;
 use crate::geometry::project::Projection;
+use crate::mesher::Report;
 use crate::topology::{Level, TVertexId, TetId, TetMesh, EDGE_VERTICES};
 use glam::DVec3;
 
@@ -101,7 +101,7 @@ fn a_cut_off_speck_is_dropped_and_the_rest_kept() {
         opts: &opts,
         projection: Projection::Exact,
         h_floor: 1.0,
-        report: Report3::default(),
+        report: Report::default(),
         rng: 1,
         trace: false,
         polish_worst: 0.0,
