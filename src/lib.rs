@@ -5,10 +5,35 @@
 //! by local operations (flips, splits, collapses) instead of global retriangulation
 //! (Persson's thesis, chapters 2 and 3; the "seed" in comments).
 //!
-//! Layers, bottom up: [`predicates`] and [`quality`], [`topology`] (the half-edge engine),
-//! [`geometry`] (implicit functions and projections), [`mesher`] (the pipelines), [`surface`]
-//! (surface meshes of phi = 0), [`io`] and
-//! [`expr`] (the command line's expression language).
+//! # Quick start
+//!
+//! ```
+//! use trussmesh::glam::{DVec2, DVec3};
+//! use trussmesh::geometry::Circle;
+//! use trussmesh::{mesh_2d, mesh_3d, mesh_surface, Options2, Options3, SurfaceOptions};
+//!
+//! // Triangles in the unit disk, edges about 0.2 long.
+//! let disk = mesh_2d(&Circle::new([0.0, 0.0], 1.0), &Options2::uniform(0.2, [-1.0, -1.0], [1.0, 1.0]))?;
+//! assert!(disk.report.quality.q_min > 0.7);
+//!
+//! // Tetrahedra in the unit ball (a closure is a signed distance).
+//! let ball = mesh_3d(&|p: DVec3| p.length() - 1.0, &Options3::uniform(0.4, [-1.1; 3], [1.1; 3]))?;
+//! assert!(ball.report.quality.dihedral_min > 5.0);
+//!
+//! // Surface triangles on the unit sphere.
+//! let sphere = mesh_surface(&|p: DVec3| p.length() - 1.0, &SurfaceOptions::uniform(0.3, [-1.2; 3], [1.2; 3]))?;
+//! assert_eq!(sphere.mesh.euler_characteristic(), 2);
+//!
+//! // Every run reports why it stopped, what it did and what it made.
+//! println!("{}\n{}\n{}", disk.report, ball.report, sphere.report);
+//! # let _ = DVec2::ZERO;
+//! # Ok::<(), trussmesh::Error>(())
+//! ```
+//!
+//! Layers, bottom up: [`predicates`] and [`quality`], [`topology`] (the half-edge and
+//! tetrahedral engines), [`geometry`] (implicit functions and projections), [`mesher`] (the
+//! planar, volume and surface pipelines on one truss), [`io`] and [`expr`] (the command
+//! line's expression language).
 #![forbid(unsafe_code)]
 #![deny(rustdoc::broken_intra_doc_links)]
 

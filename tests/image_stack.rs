@@ -67,7 +67,7 @@ fn a_stack_meshed_as_a_volume() {
     let opts = Options3::uniform(2.0, [-2.0, -2.0, -2.0], [N[0] as f64 + 2.0, N[1] as f64 + 2.0, N[2] as f64 + 2.0]);
     let out = mesh_3d(&phi, &opts).expect("volume meshes");
     out.mesh.validate(Level::Geometry).expect("valid, every tetrahedron positive");
-    let (pts, tets, _, _) = out.mesh.to_arrays();
+    let trussmesh::topology::MeshArrays { points: pts, cells: tets, .. } = out.mesh.to_arrays();
     let vol: f64 = tets
         .iter()
         .map(|t| {

@@ -224,10 +224,10 @@ fn same_input_same_output() {
     let o = Options3::uniform(0.3, [-1.1; 3], [1.1; 3]).with_size(|p: DVec3| (4.0 * p.length() - 1.0).min(2.0));
     let a = mesh_3d(&d, &o).expect("meshes").mesh.to_arrays();
     let b = mesh_3d(&d, &o).expect("meshes").mesh.to_arrays();
-    assert!(a.1.len() > 100, "a real mesh: {} tets", a.1.len());
-    assert_eq!(a.1, b.1, "same tets");
+    assert!(a.cells.len() > 100, "a real mesh: {} tets", a.cells.len());
+    assert_eq!(a.cells, b.cells, "same tets");
     let bits = |p: &[DVec3]| p.iter().flat_map(|q| q.to_array().map(f64::to_bits)).collect::<Vec<u64>>();
-    assert_eq!(bits(&a.0), bits(&b.0), "same coordinates, bit for bit");
+    assert_eq!(bits(&a.points), bits(&b.points), "same coordinates, bit for bit");
 }
 
 #[test]

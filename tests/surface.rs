@@ -233,8 +233,8 @@ fn same_input_same_mesh() {
     let opts = uniform(0.2, bbox(1.2)).with_max_iter(60);
     let a = mesh_surface(&sphere, &opts).unwrap();
     let b = mesh_surface(&sphere, &opts).unwrap();
-    let (pa, ta, _, _) = a.mesh.to_arrays();
-    let (pb, tb, _, _) = b.mesh.to_arrays();
+    let trussmesh::topology::MeshArrays { points: pa, cells: ta, .. } = a.mesh.to_arrays();
+    let trussmesh::topology::MeshArrays { points: pb, cells: tb, .. } = b.mesh.to_arrays();
     assert_eq!(ta, tb);
     assert!(pa.iter().zip(&pb).all(|(x, y)| x.to_array().map(f64::to_bits) == y.to_array().map(f64::to_bits)));
     assert!(a.report.quality.closed_manifold);
@@ -307,5 +307,5 @@ fn progress_reports_every_stage_in_order() {
     assert_eq!(seen.iter().map(|&(d, _)| d).collect::<Vec<_>>(), (1..=total).collect::<Vec<_>>());
     // The callback does not change the result.
     let plain = mesh_surface(&sphere, &uniform(0.1, bbox(1.2))).unwrap();
-    assert_eq!(out.mesh.to_arrays().0, plain.mesh.to_arrays().0);
+    assert_eq!(out.mesh.to_arrays().points, plain.mesh.to_arrays().points);
 }

@@ -265,7 +265,7 @@ fn from_arrays_names_the_problem() {
 #[test]
 fn arrays_round_trip_and_boundary_surface() {
     let (m, _) = TetMesh::delaunay(&random_points_3d(300, testing::SEED)).unwrap();
-    let (p, t, labels, _) = m.to_arrays();
+    let trussmesh::topology::MeshArrays { points: p, cells: t, labels, .. } = m.to_arrays();
     assert_eq!(labels.len(), t.len());
     let (m2, _) = TetMesh::from_arrays(&p, &t).unwrap();
     m2.validate(Level::Delaunay).unwrap();

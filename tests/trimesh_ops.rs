@@ -172,10 +172,10 @@ fn insert_and_relocate() {
 #[test]
 fn arrays_round_trip() {
     let m = grid(4, 3, 0.2, 3);
-    let (p, t, labels, _) = m.to_arrays();
+    let trussmesh::topology::MeshArrays { points: p, cells: t, labels, .. } = m.to_arrays();
     assert_eq!(labels.len(), t.len());
     let (m2, _) = TriMesh::from_arrays(&p, &t).unwrap();
-    assert_eq!(m2.to_arrays().1, t);
+    assert_eq!(m2.to_arrays().cells, t);
     assert_eq!(m2.euler_characteristic(), 1);
     // Bad arrays are typed errors.
     assert!(TriMesh::from_arrays(&p, &[[0, 1, 99]]).is_err());

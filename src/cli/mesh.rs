@@ -528,7 +528,7 @@ impl Job {
         }
         let geom = ExprImplicit2 { expr: self.domain.clone(), distance: !self.implicit };
         let out = with_progress_bar(quiet, "iterations", |pb| mesh_2d(&geom, &self.options2(pb)))?;
-        let (points, tris, labels, _) = out.mesh.to_arrays();
+        let trussmesh::topology::MeshArrays { points, cells: tris, labels, .. } = out.mesh.to_arrays();
         let subdomain =
             if labels.iter().any(|&l| l != 0) { Some(labels.iter().map(|&l| l as i32).collect()) } else { None };
         let mesh = MeshData {
@@ -555,7 +555,7 @@ fn mesh3(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
     }
     let geom = ExprImplicit3 { expr: job.domain.clone(), distance: !job.implicit };
     let out = with_progress_bar(quiet, "iterations", |pb| mesh_3d(&geom, &job.options3(pb)))?;
-    let (points, tets, labels, _) = out.mesh.to_arrays();
+    let trussmesh::topology::MeshArrays { points, cells: tets, labels, .. } = out.mesh.to_arrays();
     let subdomain =
         if labels.iter().any(|&l| l != 0) { Some(labels.iter().map(|&l| l as i32).collect()) } else { None };
     let mesh = MeshData {

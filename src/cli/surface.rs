@@ -166,7 +166,7 @@ fn run_bezier(path: &std::path::Path, h0: f64, args: &SurfaceArgs) -> Result<(),
     }
     let mut opts = BezierOptions::new(h0);
     if let Some(n) = args.max_iter {
-        opts.max_iterations = n;
+        opts.max_iter = n;
     }
     let start = std::time::Instant::now();
     let out = mesh_patches(&patches, &opts)?;

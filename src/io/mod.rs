@@ -250,7 +250,7 @@ impl MeshData {
     /// The plain-array form of a planar triangle mesh (face labels become subdomains when any
     /// is non-zero).
     pub fn from_trimesh2(m: &crate::topology::TriMesh<glam::DVec2>) -> MeshData {
-        let (pts, tris, labels, _) = m.to_arrays();
+        let crate::topology::MeshArrays { points: pts, cells: tris, labels, .. } = m.to_arrays();
         MeshData {
             dim: 2,
             cell_type: CellType::Triangle,
@@ -261,7 +261,7 @@ impl MeshData {
     }
     /// The plain-array form of a surface triangle mesh.
     pub fn from_trimesh3(m: &crate::topology::TriMesh<glam::DVec3>) -> MeshData {
-        let (pts, tris, labels, _) = m.to_arrays();
+        let crate::topology::MeshArrays { points: pts, cells: tris, labels, .. } = m.to_arrays();
         MeshData {
             dim: 3,
             cell_type: CellType::Triangle,

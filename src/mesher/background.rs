@@ -63,7 +63,7 @@ pub struct MeshSize {
 impl MeshSize {
     /// The field `h` (one value per vertex, in `m.vertex_ids()` order), limited to slope `g`.
     pub fn new(m: &TriMesh<DVec2>, mut h: Vec<f64>, g: f64) -> Result<Self, Error> {
-        let (points, tris, _, keys) = m.to_arrays();
+        let crate::topology::MeshArrays { points, cells: tris, keys, .. } = m.to_arrays();
         if h.len() != points.len() {
             return Err(Error::InvalidMesh(format!("{} sizes for {} vertices", h.len(), points.len())));
         }

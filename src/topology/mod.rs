@@ -33,7 +33,7 @@ pub use tetmesh::{
 };
 pub use tri_ops::{CollapsePlan, FlipPlan, InsertPlan, SplitPlan};
 pub use tri_validate::{Invariant, InvariantViolation, Level};
-pub use trimesh::{Face, FaceId, HalfEdge, HalfEdgeId, MeshPoint, TriMesh, Vertex, VertexId, VertexTag};
+pub use trimesh::{Face, FaceId, HalfEdge, HalfEdgeId, MeshArrays, MeshPoint, TriMesh, Vertex, VertexId, VertexTag};
 
 /// Why a local operation declined. Refusals are values, never panics; the mesh is untouched.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

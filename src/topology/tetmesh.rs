@@ -681,7 +681,7 @@ impl TetMesh {
     }
 
     /// Compacted arrays: the points, the positive tets, the labels, and the key of each point.
-    pub fn to_arrays(&self) -> (Vec<DVec3>, Vec<[usize; 4]>, Vec<u32>, Vec<TVertexId>) {
+    pub fn to_arrays(&self) -> super::MeshArrays<DVec3, 4, TVertexId> {
         let mut index = slotmap::SecondaryMap::with_capacity(self.vertices.len());
         let mut points = Vec::with_capacity(self.vertices.len());
         let mut keys = Vec::with_capacity(self.vertices.len());
@@ -696,7 +696,7 @@ impl TetMesh {
             out.push([index[tx.v[0]], index[tx.v[1]], index[tx.v[2]], index[tx.v[3]]]);
             labels.push(tx.label);
         }
-        (points, out, labels, keys)
+        super::MeshArrays { points, cells: out, labels, keys }
     }
 
     /// The boundary surface as a triangle mesh, faces counter-clockwise seen from outside.

@@ -44,6 +44,21 @@ pub enum VertexTag {
     },
 }
 
+/// A mesh as compact arrays: `points`, `cells` (indices into `points`: counter-clockwise
+/// triangles, or positive tetrahedra), one label per cell (the subdomain), and the vertex key
+/// of each point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshArrays<P, const N: usize, K> {
+    /// The points.
+    pub points: Vec<P>,
+    /// The cells, as indices into `points`.
+    pub cells: Vec<[usize; N]>,
+    /// The label (subdomain) of each cell.
+    pub labels: Vec<u32>,
+    /// The mesh's vertex key of each point.
+    pub keys: Vec<K>,
+}
+
 /// A point type the engine can hold: planar ([`DVec2`]) or in space ([`DVec3`]).
 pub trait MeshPoint: Copy + PartialEq + std::fmt::Debug + Send + Sync + 'static {
     /// The point in 3-D (z = 0 for planar points).
@@ -602,7 +617,7 @@ impl<P: MeshPoint> TriMesh<P> {
 
     /// Compacted arrays: the points, the counter-clockwise triangles, the face labels, and the
     /// vertex key of each point.
-    pub fn to_arrays(&self) -> (Vec<P>, Vec<[usize; 3]>, Vec<u32>, Vec<VertexId>) {
+    pub fn to_arrays(&self) -> MeshArrays<P, 3, VertexId> {
         let mut index = slotmap::SecondaryMap::with_capacity(self.vertices.len());
         let mut points = Vec::with_capacity(self.vertices.len());
         let mut keys = Vec::with_capacity(self.vertices.len());
@@ -618,7 +633,7 @@ impl<P: MeshPoint> TriMesh<P> {
             tris.push([index[a], index[b], index[c]]);
             labels.push(fx.label);
         }
-        (points, tris, labels, keys)
+        MeshArrays { points, cells: tris, labels, keys }
     }
 
     /// Checks that a key is live, as a refusal.

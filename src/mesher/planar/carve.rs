@@ -4,7 +4,7 @@ use super::*;
 /// tags the boundary.
 /// Takes the mesh by value: it is dropped before the carved one is built (peak memory).
 pub(super) fn carve(ctx: &Ctx, m: TriMesh<DVec2>, boundary_slack: f64) -> Result<TriMesh<DVec2>, Error> {
-    let (points, tris, labels, keys) = m.to_arrays();
+    let crate::topology::MeshArrays { points, cells: tris, labels, keys, .. } = m.to_arrays();
     let on_boundary: Vec<bool> = keys.iter().map(|&k| boundary_slack > 0.0 && m.is_boundary_vertex(k)).collect();
     let fixed: Vec<bool> = keys.iter().map(|&k| m.tag(k) == VertexTag::Fixed).collect();
     drop(m);

@@ -171,7 +171,7 @@ pub(super) fn density_control(
 /// first vertex there, so that neighbours sit near each other in the arenas. Meshes grown by
 /// splits and subdivision scatter them, and every sweep then waits on cache misses.
 pub fn relayout(m: &TriMesh<DVec3>) -> Result<TriMesh<DVec3>, Error> {
-    let (points, tris, _, _) = m.to_arrays();
+    let crate::topology::MeshArrays { points, cells: tris, .. } = m.to_arrays();
     let order = crate::topology::hilbert_sort_3d(&points);
     let mut rank = vec![0usize; points.len()];
     for (r, &i) in order.iter().enumerate() {

@@ -47,7 +47,7 @@ pub(super) fn carve(ctx: &Ctx, m: &mut TetMesh, gone: &[TetId]) -> Result<bool, 
     }
     let drop: SecondaryMap<TetId, ()> = gone.iter().map(|&t| (t, ())).collect();
     let keep: Vec<bool> = m.tet_ids().map(|t| !drop.contains_key(t)).collect();
-    let (points, tets, _, _) = m.to_arrays();
+    let crate::topology::MeshArrays { points, cells: tets, .. } = m.to_arrays();
     let mut kept: Vec<[usize; 4]> = tets.into_iter().zip(keep).filter(|x| x.1).map(|x| x.0).collect();
     // A carve whose pinches do not resolve is not made (the mesh as it is stays valid).
     let Ok(mut carved) = repair_pinches(&points, &mut kept) else { return Ok(false) };

@@ -267,7 +267,7 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Erro
     if del.num_tets() as u64 > opts.max_elements {
         return Err(Error::TooManyElements { estimated: del.num_tets() as u64, limit: opts.max_elements });
     }
-    let (points, tets, _, _) = del.to_arrays();
+    let crate::topology::MeshArrays { points, cells: tets, .. } = del.to_arrays();
     drop(del);
     // Seed: keep tets whose centroid is inside by more than geps = 0.1 h0.
     let geps = 0.1 * opts.h0;

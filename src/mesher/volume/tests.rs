@@ -86,7 +86,7 @@ fn a_cut_off_speck_is_dropped_and_the_rest_kept() {
     let mut rng = crate::testing::Rng::new(crate::testing::SEED);
     let mut pts: Vec<DVec3> = (0..200).map(|_| DVec3::new(rng.f64(), rng.f64(), rng.f64())).collect();
     let (del, _) = TetMesh::delaunay(&pts).expect("delaunay");
-    let (points, mut tets, _, _) = del.to_arrays();
+    let crate::topology::MeshArrays { points, cells: mut tets, .. } = del.to_arrays();
     pts = points;
     // A flat tet away from the rest, cut off from it.
     let n = pts.len();

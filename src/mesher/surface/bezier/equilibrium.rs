@@ -1,6 +1,7 @@
 //! The truss step of a patch mesh: bar forces in space, projection back onto the patch.
 
 use super::{edges_sorted, orient, BezierOptions, Kind, RationalBezierPatch};
+use crate::mesher::truss::{bar_force, RestScale};
 use glam::{DVec2, DVec3};
 
 /// One truss step: repulsive bar forces toward Fscale h (seed eq. 2.6, scaled so the bars fill
@@ -20,22 +21,19 @@ pub(super) fn force_step(
     pos_of: &dyn Fn(DVec2) -> DVec3,
 ) -> (f64, bool) {
     let edges = edges_sorted(tris);
-    let (mut sl, mut nb) = (0.0, 0.0);
+    // One size everywhere on a patch: every bar's relative size is 1.
+    let mut rest = RestScale::new(2);
     for ((a, b), _) in &edges {
-        sl += pts[*a].distance_squared(pts[*b]);
-        nb += 1.0;
+        rest.add(pts[*a].distance_squared(pts[*b]), 1.0);
     }
-    let l0 = opts.fscale * (sl / nb).sqrt();
+    let l0 = rest.scale(opts.fscale);
     let _ = h;
     let mut force = vec![DVec3::ZERO; pts.len()];
     for ((a, b), _) in &edges {
         let d = pts[*a] - pts[*b];
-        let l = d.length();
-        if l > 0.0 && l < l0 {
-            let f = (l0 - l) / l * d;
-            force[*a] += f;
-            force[*b] -= f;
-        }
+        let f = bar_force(d, d.length(), l0);
+        force[*a] += f;
+        force[*b] -= f;
     }
     let mut around: Vec<Vec<usize>> = vec![Vec::new(); pts.len()];
     for (k, t) in tris.iter().enumerate() {
@@ -50,7 +48,7 @@ pub(super) fn force_step(
             continue;
         }
         let mut joined = false;
-        let target = pts[i] + opts.dt * force[i];
+        let target = pts[i] + opts.deltat * force[i];
         let new_uv = if opts.in_space {
             let q = p.project(target, uv[i], None);
             // As in DistMesh, a node pushed out of the trimmed domain becomes a boundary node.

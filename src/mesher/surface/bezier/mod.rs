@@ -363,8 +363,11 @@ pub fn mesh_patch_with_sides(
         return Err(Error::BadSize(format!("h0 = {} must be positive and finite", opts.h0)));
     }
     let ok = |v: f64| v > 0.0 && v.is_finite();
-    if !(ok(opts.fscale) && ok(opts.dt)) {
-        return Err(Error::Invalid(format!("fscale {} and dt {} must be positive and finite", opts.fscale, opts.dt)));
+    if !(ok(opts.fscale) && ok(opts.deltat)) {
+        return Err(Error::Invalid(format!(
+            "fscale {} and deltat {} must be positive and finite",
+            opts.fscale, opts.deltat
+        )));
     }
     // Estimated node count: refuse before allocating.
     let est = (start::side_params_len(sides) as f64 / 4.0).powi(2);
@@ -377,14 +380,14 @@ pub fn mesh_patch_with_sides(
     let h = if opts.in_space { opts.h0 } else { 1.0 / ((sides[0].len() + sides[2].len()) as f64 / 2.0 - 1.0).max(1.0) };
     let mut pts: Vec<DVec3> = uv.iter().map(|&q| pos_of(q)).collect();
     improve::flip_pass(&pts, &uv, &mut tris);
-    for it in 1..=opts.max_iterations {
+    for it in 1..=opts.max_iter {
         let (moved, rebuild) = equilibrium::force_step(p, &mut pts, &mut uv, &mut kind, &tris, h, opts, &pos_of);
         if rebuild {
             tris = start::triangulate(p, &mut uv, &mut kind)?;
             pts = uv.iter().map(|&q| pos_of(q)).collect();
         }
         improve::flip_pass(&pts, &uv, &mut tris);
-        let late = it + DENSITY_EVERY > opts.max_iterations;
+        let late = it + DENSITY_EVERY > opts.max_iter;
         if it % DENSITY_EVERY == 0
             && !late
             && density::density(p, &mut pts, &mut uv, &mut kind, &tris, h, opts, &pos_of)

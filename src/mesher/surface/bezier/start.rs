@@ -148,7 +148,7 @@ pub(super) fn triangulate(
     kind: &mut Vec<Kind>,
 ) -> Result<Vec<[usize; 3]>, Error> {
     let (dm, ids) = TriMesh::<DVec2>::delaunay(uv)?;
-    let (_, tris_raw, _, keys) = dm.to_arrays();
+    let crate::topology::MeshArrays { cells: tris_raw, keys, .. } = dm.to_arrays();
     let mut key_to_input = HashMap::new();
     for (i, k) in ids.iter().enumerate() {
         key_to_input.entry(*k).or_insert(i);
