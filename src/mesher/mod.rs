@@ -20,6 +20,7 @@ pub use options::ProgressFn;
 pub use planar::options::{Options2, SizeFn2, Strategy};
 pub use planar::report::{area, boundary_deviation, size_deviation, QualityStats};
 pub use report::{OpCounts, Report, StopReason, SurfaceStages};
+pub use truss::DensityBand;
 pub use volume::options::{Options3, SizeFn3};
 pub use volume::report::{boundary_deviation_3d, size_deviation_3d, QualityStats3};
 

@@ -1,9 +1,6 @@
 use super::*;
 use crate::mesher::StopReason;
 
-/// Nodes moved farther than this many local sizes since their last check get their edges
-/// re-checked for the Delaunay property (the seed's ttol, applied per node).
-pub(super) const TTOL: f64 = 0.1;
 /// Density control runs every this many iterations (a window).
 pub(super) const DENSITY_EVERY: usize = 10;
 /// The window of large meshes (over RELAYOUT_ABOVE vertices): a window ends in one topology
@@ -350,7 +347,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         // per window, right before the window's scheduled full sweep. Every node is looked at
         // then (one that moved far early in the window may have settled since).
         let mut topo_changed = false;
-        let far_from_last = |i: usize| p[i].distance(pold[i]) > TTOL * h0 * hv[i];
+        let far_from_last = |i: usize| p[i].distance(pold[i]) > truss::TTOL * h0 * hv[i];
         let far = if !large {
             active.par_iter().with_min_len(CHUNK).any(|&i| far_from_last(i as usize))
         } else {

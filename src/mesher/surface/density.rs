@@ -9,6 +9,7 @@ use crate::geometry::Implicit3;
 use crate::mesher::report::OpCounts;
 use crate::quality::triangle_q3;
 use crate::topology::{HalfEdgeId, TriMesh, VertexId};
+use crate::mesher::truss::DensityBand;
 use crate::Error;
 use glam::DVec3;
 use slotmap::SecondaryMap;
@@ -16,11 +17,9 @@ use slotmap::SecondaryMap;
 /// Remeshing passes that bring the start mesh to the target density.
 pub(super) const REMESH_PASSES: usize = 12;
 /// Split above 4/3 h, collapse below 4/5 h (the remeshing hysteresis of Botsch and Kobbelt).
-const REMESH_HI: f64 = 4.0 / 3.0;
-const REMESH_LO: f64 = 0.8;
+const REMESH_BAND: DensityBand = DensityBand::new(4.0 / 3.0, 0.8);
 /// Density control during the force loop: wider hysteresis so nodes do not go in and out.
-const DENSITY_HI: f64 = 1.6;
-const DENSITY_LO: f64 = 0.5;
+const DENSITY_BAND: DensityBand = DensityBand::new(1.6, 0.5);
 
 /// Every edge as one half-edge and its two end vertices, in arena order: a stable list to walk
 /// while the mesh changes. [`edge_now`] finds the edge again.
@@ -41,26 +40,20 @@ pub fn edge_now(m: &TriMesh<DVec3>, (h, a, b): (HalfEdgeId, VertexId, VertexId))
     m.find_half_edge(a, b)
 }
 
-/// Splits every edge longer than `hi` times h(midpoint) at its midpoint projected onto the
-/// surface. Returns the number of splits.
-pub fn split_long(
+/// Visits every edge of the list taken now, as it stands when reached (`edge_now`), with its
+/// length, its midpoint and h there; `visit` may change the mesh and says whether it did.
+/// Returns the number of changes.
+fn each_edge(
     m: &mut TriMesh<DVec3>,
-    phi: &dyn Implicit3,
     size: &SizeField,
-    hi: f64,
-    tol: f64,
+    mut visit: impl FnMut(&mut TriMesh<DVec3>, HalfEdgeId, f64, DVec3, f64) -> Result<bool, Error>,
 ) -> Result<usize, Error> {
     let mut n = 0;
     for e in edge_list(m) {
         let Some(h) = edge_now(m, e) else { continue };
-        let (a, b) = (e.1, e.2);
-        let (pa, pb) = (m.pos(a), m.pos(b));
+        let (pa, pb) = (m.pos(e.1), m.pos(e.2));
         let mid = 0.5 * (pa + pb);
-        if pa.distance(pb) <= hi * size.at(mid) {
-            continue;
-        }
-        let p = project(phi, mid, tol)?;
-        if m.split_edge(h, p).is_ok() {
+        if visit(m, h, pa.distance(pb), mid, size.at(mid))? {
             n += 1;
         }
     }
@@ -92,43 +85,42 @@ fn collapse_ring(m: &TriMesh<DVec3>, h: HalfEdgeId, pos: DVec3) -> (Vec<[DVec3; 
     (tris, ring)
 }
 
-/// Collapses every edge shorter than `lo` times h(midpoint) into its projected midpoint, when
-/// the link condition holds (the engine's check), no new triangle folds or falls below quality
-/// `min_q`, and no new edge passes `hi` times h. Returns the number of collapses.
-#[allow(clippy::too_many_arguments)]
-pub fn collapse_short(
+/// Density control by `band` (seed section 2.4): every edge longer than `band.split_above`
+/// times h(midpoint) is split at its midpoint projected onto the surface; then every edge
+/// shorter than `band.collapse_below` times h collapses into its projected midpoint, when the
+/// link condition holds (the engine's check), no new triangle folds or falls below quality
+/// `min_q`, and no new edge passes `band.split_above` times h. Returns (splits, collapses).
+pub fn apply_band(
     m: &mut TriMesh<DVec3>,
     phi: &dyn Implicit3,
     size: &SizeField,
-    lo: f64,
-    hi: f64,
+    band: DensityBand,
     min_q: f64,
     tol: f64,
-) -> Result<usize, Error> {
-    let mut n = 0;
-    for e in edge_list(m) {
-        let Some(h) = edge_now(m, e) else { continue };
-        let (a, b) = (e.1, e.2);
-        let (pa, pb) = (m.pos(a), m.pos(b));
-        let mid = 0.5 * (pa + pb);
-        let hm = size.at(mid);
-        if pa.distance(pb) >= lo * hm || m.num_vertices() <= 4 {
-            continue;
+) -> Result<(usize, usize), Error> {
+    let splits = each_edge(m, size, |m, h, len, mid, hm| {
+        if len <= band.split_above * hm {
+            return Ok(false);
+        }
+        let p = project(phi, mid, tol)?;
+        Ok(m.split_edge(h, p).is_ok())
+    })?;
+    let collapses = each_edge(m, size, |m, h, len, mid, hm| {
+        if len >= band.collapse_below * hm || m.num_vertices() <= 4 {
+            return Ok(false);
         }
         let p = project(phi, mid, tol)?;
         let (tris, ring) = collapse_ring(m, h, p);
         let hp = size.at(p);
-        if ring.iter().any(|&r| r.distance(p) > hi * hp) {
-            continue;
+        if ring.iter().any(|&r| r.distance(p) > band.split_above * hp) {
+            return Ok(false);
         }
         if tris.iter().any(|t| triangle_q3(*t) < min_q || !faces_out(phi, t[0], t[1], t[2], FOLD_COS)) {
-            continue;
+            return Ok(false);
         }
-        if m.collapse(h, p).is_ok() {
-            n += 1;
-        }
-    }
-    Ok(n)
+        Ok(m.collapse(h, p).is_ok())
+    })?;
+    Ok((splits, collapses))
 }
 
 /// One remeshing pass (the isotropic remeshing loop of Botsch and Kobbelt, 2004): split long,
@@ -140,15 +132,16 @@ pub(super) fn remesh_pass(
     tol: f64,
     counts: &mut OpCounts,
 ) -> Result<(), Error> {
-    counts.splits += split_long(m, phi, size, REMESH_HI, tol)?;
-    counts.collapses += collapse_short(m, phi, size, REMESH_LO, REMESH_HI, 0.0, tol)?;
+    let (s, c) = apply_band(m, phi, size, REMESH_BAND, 0.0, tol)?;
+    counts.splits += s;
+    counts.collapses += c;
     counts.flips += flip_pass(m, phi, FlipGoal::Valence, 3);
     smooth_tangential(m, phi, 0.5, tol)?;
     Ok(())
 }
 
-/// Density control during the force loop: splits above DENSITY_HI h, collapses below
-/// DENSITY_LO h (keeping every new triangle above quality 0.3), then quality flips if anything
+/// Density control during the force loop: splits and collapses outside DENSITY_BAND (keeping
+/// every new triangle above quality 0.3), then quality flips if anything
 /// changed. Returns the number of splits and collapses.
 pub(super) fn density_control(
     m: &mut TriMesh<DVec3>,
@@ -157,8 +150,7 @@ pub(super) fn density_control(
     tol: f64,
     counts: &mut OpCounts,
 ) -> Result<usize, Error> {
-    let s = split_long(m, phi, size, DENSITY_HI, tol)?;
-    let c = collapse_short(m, phi, size, DENSITY_LO, DENSITY_HI, 0.3, tol)?;
+    let (s, c) = apply_band(m, phi, size, DENSITY_BAND, 0.3, tol)?;
     counts.splits += s;
     counts.collapses += c;
     if s + c > 0 {

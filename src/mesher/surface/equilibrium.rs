@@ -29,9 +29,6 @@ const PATIENCE: usize = 60;
 const PATIENCE_ALONE: usize = 250;
 const FINE_PATIENCE: usize = 5;
 const SCORE_STEP: f64 = 1e-3;
-/// Flip sweeps in the force loop wait until a node may have moved this far (times h) since
-/// the last one (the seed's ttol).
-const TTOL: f64 = 0.1;
 /// Triangles below this quality have their edges tried for flips after every force step.
 const WATCH_Q: f64 = 0.8;
 
@@ -87,7 +84,7 @@ pub(super) fn force_loop(
         run.iterations = it;
         let moved = force_step(&mut m, phi, size, opts, tol, &mut run.undone)?;
         since_flips += moved;
-        if since_flips > TTOL {
+        if since_flips > truss::TTOL {
             counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 5);
             since_flips = 0.0;
         }

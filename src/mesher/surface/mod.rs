@@ -47,7 +47,7 @@ pub mod march {
 /// conditions the engine cannot know (no fold against grad phi, quality, valence), and the
 /// smoothing, equalising and subdivision built on them.
 pub mod ops {
-    pub use super::density::{collapse_short, edge_list, edge_now, relayout, split_long, subdivide};
+    pub use super::density::{apply_band, edge_list, edge_now, relayout, subdivide};
     pub use super::improve::{
         equalize_lengths, flip_pass, move_if_no_fold, move_if_no_fold_g, smooth_tangential, try_flip, FlipGoal,
         FOLD_COS,

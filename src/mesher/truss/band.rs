@@ -3,7 +3,7 @@
 
 /// Density control's thresholds, in target lengths (the length the size function asks for).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct DensityBand {
+pub struct DensityBand {
     /// Edges longer than this many target lengths are split.
     pub split_above: f64,
     /// Edges shorter than this many target lengths are collapsed.
@@ -12,17 +12,17 @@ pub(crate) struct DensityBand {
 
 impl DensityBand {
     /// The band (split above, collapse below).
-    pub(crate) const fn new(split_above: f64, collapse_below: f64) -> Self {
+    pub const fn new(split_above: f64, collapse_below: f64) -> Self {
         DensityBand { split_above, collapse_below }
     }
     /// Whether an edge of `ratio` target lengths is to be split.
     #[inline]
-    pub(crate) fn splits(&self, ratio: f64) -> bool {
+    pub fn splits(&self, ratio: f64) -> bool {
         ratio > self.split_above
     }
     /// Whether an edge of `ratio` target lengths is to be collapsed.
     #[inline]
-    pub(crate) fn collapses(&self, ratio: f64) -> bool {
+    pub fn collapses(&self, ratio: f64) -> bool {
         ratio < self.collapse_below
     }
 }

@@ -7,13 +7,17 @@
 //! - [`stop`]: the stop tests (node movement below dptol, quality plateau);
 //! - [`parallel`]: deterministic parallel sums and O(1)-cleared marks for the hot loops.
 
+/// The seed's ttol: connectivity is looked at again once a node moved this many local sizes
+/// since the last look (every mesher; the seed retriangulates there).
+pub(crate) const TTOL: f64 = 0.1;
+
 pub(crate) mod band;
 pub(crate) mod force;
 pub(crate) mod parallel;
 pub(crate) mod step;
 pub(crate) mod stop;
 
-pub(crate) use band::DensityBand;
+pub use band::DensityBand;
 pub(crate) use force::{bar_force, RestScale};
 pub(crate) use parallel::{det_sum, Marks, CHUNK};
 pub(crate) use step::{backtrack, guard_inversions, Backoff};

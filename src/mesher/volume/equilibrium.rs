@@ -23,25 +23,16 @@ use std::time::Instant;
 const SWAP_TQ: f64 = 0.5;
 /// A tet no swap could improve is tried again only this many iterations later.
 const SWAP_RETRY: usize = 10;
-/// Nodes moved farther than this many local sizes since their last check get their faces
-/// re-checked for the Delaunay property (the seed's ttol, per node).
-const TTOL: f64 = 0.1;
 /// Density control runs every this many iterations.
 const DENSITY_EVERY: usize = 10;
 /// The force loop stops on a plateau: the best mean radius ratio, sampled every DENSITY_EVERY
-/// iterations, rose by less than this per sample over the last PLATEAU_WINDOWS samples. At
-/// 1e-5 the ball at h0 = 0.05 ran into the 300-step cap for a final mean radius ratio of
-/// 0.9397; at 1e-4 it stops after 180 steps with 0.9393 and a wider dihedral range (38.8 to
-/// 119.8 degrees against 35.6 to 123.4), in 16.5 s instead of 22. The gain is taken over the
-/// whole span rather than asked of each sample: on large meshes single samples still wobble
-/// above the threshold long after the trend is flat.
+/// iterations, rose by less than this per sample over the last PLATEAU_WINDOWS samples (taken
+/// over the span: on large meshes single samples wobble long after the trend is flat).
 const QUALITY_PLATEAU: f64 = 1e-4;
 const PLATEAU_WINDOWS: usize = 4;
 /// Lawson flips and sliver swaps in the force loop come at the end of windows of this many
-/// steps, with one snapshot rebuild: at every step they cost more than the forces (the ball at
-/// h0 = 0.1: swaps 4 ms and the rebuild 5 ms a step, the forces 1.2 ms). Flat boundary tets
-/// still go at every step: removed only at window ends, the ball at h0 = 0.15 lost 1.01% of its
-/// volume instead of 0.96%.
+/// steps, with one snapshot rebuild (at every step they would cost more than the forces);
+/// flat boundary tets still go at every step.
 const TOPO_EVERY: usize = 5;
 
 /// Runs `step` for up to `rounds` rounds, stopping after a round that changed nothing (or, with
@@ -175,7 +166,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             (0..p.len())
                 .into_par_iter()
                 .with_min_len(CHUNK)
-                .map(|i| p[i].distance(pold[i]) > TTOL * h0 * hv[i])
+                .map(|i| p[i].distance(pold[i]) > truss::TTOL * h0 * hv[i])
                 .collect()
         } else {
             Vec::new()
