@@ -74,7 +74,7 @@ mod tests {
                 assert!(!p.reached(0.5 + 0.01 * k as f64));
             }
             let hits: Vec<bool> = (0..4).map(|_| p.reached(0.6)).collect();
-            assert_eq!(hits, [false, false, true, true]);
+            assert_eq!(hits, [false, false, false, true]);
         }
     }
 
