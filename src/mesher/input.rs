@@ -3,6 +3,7 @@
 
 use super::Options2;
 use crate::geometry::Implicit2;
+use crate::mesher::truss::domain::{check_input, checked_d, checked_h};
 use crate::Error;
 use glam::DVec2;
 
@@ -17,12 +18,7 @@ pub(crate) struct DomainSurvey {
 /// Evaluates d, failing on a non-finite value.
 #[inline]
 pub(crate) fn eval_d(domain: &dyn Implicit2, p: DVec2) -> Result<f64, Error> {
-    let d = domain.value(p);
-    if d.is_finite() {
-        Ok(d)
-    } else {
-        Err(Error::NonFinite { what: "the distance function", value: d, at: [p.x, p.y, 0.0] })
-    }
+    checked_d(domain.value(p), p)
 }
 
 /// Evaluates the relative size h, failing on a non-finite value. Size functions are only
@@ -31,17 +27,7 @@ pub(crate) fn eval_d(domain: &dyn Implicit2, p: DVec2) -> Result<f64, Error> {
 /// rejects non-positive sizes inside.
 #[inline]
 pub(crate) fn eval_h_floor(opts: &Options2, p: DVec2, floor: f64) -> Result<f64, Error> {
-    match &opts.size {
-        None => Ok(1.0),
-        Some(h) => {
-            let v = h(p);
-            if !v.is_finite() {
-                Err(Error::NonFinite { what: "the size function", value: v, at: [p.x, p.y, 0.0] })
-            } else {
-                Ok(v.max(floor))
-            }
-        }
-    }
+    checked_h(opts.size.as_deref(), p, floor)
 }
 
 /// Evaluates the relative size h strictly: non-finite or non-positive values are errors.
@@ -61,28 +47,9 @@ pub(crate) fn eval_h(opts: &Options2, p: DVec2) -> Result<f64, Error> {
 /// Checks h0, the box, the fixed points, d and h on a sample grid, and the element estimate.
 pub(crate) fn survey(domain: &dyn Implicit2, opts: &Options2) -> Result<DomainSurvey, Error> {
     let h0 = opts.h0;
-    if !h0.is_finite() || h0 <= 0.0 {
-        return Err(Error::BadSize(format!("h0 must be positive and finite, got {h0}")));
-    }
     let [lo, hi] = opts.bbox;
-    if !lo.is_finite() || !hi.is_finite() {
-        return Err(Error::BadBox(format!("the box ({}, {}) - ({}, {}) is not finite", lo.x, lo.y, hi.x, hi.y)));
-    }
-    if !(hi.x > lo.x && hi.y > lo.y) {
-        return Err(Error::BadBox(format!(
-            "the box ({}, {}) - ({}, {}) is empty or inverted: each max must exceed its min",
-            lo.x, lo.y, hi.x, hi.y
-        )));
-    }
+    check_input(h0, lo, hi, &opts.fixed)?;
     let ext = hi - lo;
-    for p in &opts.fixed {
-        if !p.is_finite() {
-            return Err(Error::BadCoordinate { what: "fixed point", value: if p.x.is_finite() { p.y } else { p.x } });
-        }
-        if p.x < lo.x || p.y < lo.y || p.x > hi.x || p.y > hi.y {
-            return Err(Error::Invalid(format!("fixed point ({}, {}) lies outside the box", p.x, p.y)));
-        }
-    }
     // Sample at about h0 (at most 512 per side): d and h must be finite, some point inside.
     let nx = ((ext.x / h0).ceil() as usize + 1).clamp(8, 512);
     let ny = ((ext.y / h0).ceil() as usize + 1).clamp(8, 512);

@@ -95,13 +95,7 @@ impl SurfaceOptions {
     }
 
     pub(super) fn check(&self) -> Result<(), Error> {
-        if !(self.h0 > 0.0 && self.h0.is_finite()) {
-            return Err(Error::BadSize(format!("h0 = {} must be positive and finite", self.h0)));
-        }
-        let [lo, hi] = self.bbox;
-        if !(lo.is_finite() && hi.is_finite() && lo.cmplt(hi).all()) {
-            return Err(Error::BadBox(format!("{lo} .. {hi}")));
-        }
+        crate::mesher::truss::domain::check_input(self.h0, self.bbox[0], self.bbox[1], &[])?;
         if let SurfaceSize::Curvature { k, g, hmax } = self.size {
             if !(k > 0.0 && k.is_finite() && g > 0.0 && g.is_finite() && hmax >= self.h0) {
                 return Err(Error::BadSize(format!(

@@ -5,6 +5,8 @@
 //! - [`step`]: step control, so that no forward Euler step (eq. 2.4) inverts an element;
 //! - [`band`]: the density band, splits above and collapses below a length in target units;
 //! - [`stop`]: the stop tests (node movement below dptol, quality plateau);
+//! - [`domain`]: d and h evaluated with their inputs checked (a typed error naming the bad
+//!   value and where it came from);
 //! - [`parallel`]: deterministic parallel sums and O(1)-cleared marks for the hot loops.
 
 /// The seed's ttol: connectivity is looked at again once a node moved this many local sizes
@@ -12,6 +14,7 @@
 pub(crate) const TTOL: f64 = 0.1;
 
 pub(crate) mod band;
+pub(crate) mod domain;
 pub(crate) mod force;
 pub(crate) mod parallel;
 pub(crate) mod step;

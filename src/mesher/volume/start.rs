@@ -6,6 +6,7 @@ use super::features::crease_points;
 use super::options::Options3;
 use super::{Ctx, CHUNK};
 use crate::geometry::Implicit3;
+use crate::mesher::truss::domain::{check_input, checked_d, checked_h};
 use crate::topology::{TVertexId, TetId, TetMesh, VertexTag};
 use crate::Error;
 use glam::DVec3;
@@ -25,28 +26,13 @@ const SURFACE_GAP: f64 = 0.9;
 const INTERIOR_DEPTH: f64 = 0.45;
 
 pub(super) fn eval_d(domain: &dyn Implicit3, p: DVec3) -> Result<f64, Error> {
-    let d = domain.value(p);
-    if d.is_finite() {
-        Ok(d)
-    } else {
-        Err(Error::NonFinite { what: "the distance function", value: d, at: [p.x, p.y, p.z] })
-    }
+    checked_d(domain.value(p), p)
 }
 
 /// The relative size, raised to `floor` where it is not positive (outside the domain, where
 /// size functions need not make sense); non-finite values are errors.
 pub(super) fn eval_h_floor(opts: &Options3, p: DVec3, floor: f64) -> Result<f64, Error> {
-    match &opts.size {
-        None => Ok(1.0),
-        Some(h) => {
-            let v = h(p);
-            if !v.is_finite() {
-                Err(Error::NonFinite { what: "the size function", value: v, at: [p.x, p.y, p.z] })
-            } else {
-                Ok(v.max(floor))
-            }
-        }
-    }
+    checked_h(opts.size.as_deref(), p, floor)
 }
 
 pub(super) struct Survey {
@@ -58,27 +44,8 @@ pub(super) struct Survey {
 /// before anything large is allocated.
 pub(super) fn survey(domain: &dyn Implicit3, opts: &Options3) -> Result<Survey, Error> {
     let h0 = opts.h0;
-    if !h0.is_finite() || h0 <= 0.0 {
-        return Err(Error::BadSize(format!("h0 must be positive and finite, got {h0}")));
-    }
     let [lo, hi] = opts.bbox;
-    if !lo.is_finite() || !hi.is_finite() {
-        return Err(Error::BadBox(format!("the box {lo:?} - {hi:?} is not finite")));
-    }
-    if !(hi.x > lo.x && hi.y > lo.y && hi.z > lo.z) {
-        return Err(Error::BadBox(format!(
-            "the box {lo:?} - {hi:?} is empty or inverted: each max must exceed its min"
-        )));
-    }
-    for p in &opts.fixed {
-        if !p.is_finite() {
-            let bad = p.to_array().into_iter().find(|x| !x.is_finite()).unwrap_or(f64::NAN);
-            return Err(Error::BadCoordinate { what: "fixed point", value: bad });
-        }
-        if p.cmplt(lo).any() || p.cmpgt(hi).any() {
-            return Err(Error::Invalid(format!("fixed point {p:?} lies outside the box")));
-        }
-    }
+    check_input(h0, lo, hi, &opts.fixed)?;
     if !opts.fscale.is_finite() || opts.fscale <= 0.0 || !opts.deltat.is_finite() || opts.deltat <= 0.0 {
         return Err(Error::Invalid(format!(
             "fscale and deltat must be positive and finite, got {} and {}",

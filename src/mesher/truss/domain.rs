@@ -1,0 +1,96 @@
+//! The domain evaluator every mesher shares: d and h evaluated with their inputs checked, so
+//! that a bad value is a typed error naming the function and the point, found before anything
+//! large is allocated.
+
+use crate::Error;
+use glam::{DVec2, DVec3};
+
+/// A point of the domain's space, as the checks read it.
+pub(crate) trait DomainPoint: Copy {
+    /// The coordinates.
+    fn coords(self) -> Vec<f64>;
+    /// The point in 3-D (z = 0 in the plane), as errors report it.
+    fn xyz(self) -> [f64; 3] {
+        let c = self.coords();
+        [c[0], c[1], c.get(2).copied().unwrap_or(0.0)]
+    }
+    /// "(x, y)" or "(x, y, z)".
+    fn show(self) -> String {
+        let c: Vec<String> = self.coords().iter().map(|x| x.to_string()).collect();
+        format!("({})", c.join(", "))
+    }
+}
+
+impl DomainPoint for DVec2 {
+    fn coords(self) -> Vec<f64> {
+        self.to_array().to_vec()
+    }
+}
+
+impl DomainPoint for DVec3 {
+    fn coords(self) -> Vec<f64> {
+        self.to_array().to_vec()
+    }
+}
+
+/// The value `d` of the distance function at `p`, or the error that names it when it is not
+/// finite.
+#[inline]
+pub(crate) fn checked_d<P: DomainPoint>(d: f64, p: P) -> Result<f64, Error> {
+    if d.is_finite() {
+        Ok(d)
+    } else {
+        Err(Error::NonFinite { what: "the distance function", value: d, at: p.xyz() })
+    }
+}
+
+/// The relative size at `p` (1 without a size function), raised to `floor` where it is not
+/// positive: size functions need only make sense inside the domain (the seed's often are not
+/// positive outside, in holes); non-finite values are errors.
+#[inline]
+pub(crate) fn checked_h<P: DomainPoint>(
+    size: Option<&(dyn Fn(P) -> f64 + Send + Sync)>,
+    p: P,
+    floor: f64,
+) -> Result<f64, Error> {
+    match size {
+        None => Ok(1.0),
+        Some(h) => {
+            let v = h(p);
+            if !v.is_finite() {
+                Err(Error::NonFinite { what: "the size function", value: v, at: p.xyz() })
+            } else {
+                Ok(v.max(floor))
+            }
+        }
+    }
+}
+
+/// Checks h0, the box [lo, hi] and the fixed points: h0 positive and finite, the box finite
+/// and not empty, every fixed point finite and in the box.
+pub(crate) fn check_input<P: DomainPoint>(h0: f64, lo: P, hi: P, fixed: &[P]) -> Result<(), Error> {
+    if !h0.is_finite() || h0 <= 0.0 {
+        return Err(Error::BadSize(format!("h0 must be positive and finite, got {h0}")));
+    }
+    let (l, u) = (lo.coords(), hi.coords());
+    if l.iter().chain(&u).any(|x| !x.is_finite()) {
+        return Err(Error::BadBox(format!("the box {} - {} is not finite", lo.show(), hi.show())));
+    }
+    if l.iter().zip(&u).any(|(a, b)| !(b > a)) {
+        return Err(Error::BadBox(format!(
+            "the box {} - {} is empty or inverted: each max must exceed its min",
+            lo.show(),
+            hi.show()
+        )));
+    }
+    for &p in fixed {
+        let c = p.coords();
+        if let Some(&bad) = c.iter().find(|x| !x.is_finite()) {
+            return Err(Error::BadCoordinate { what: "fixed point", value: bad });
+        }
+        if c.iter().zip(l.iter().zip(&u)).any(|(x, (a, b))| x < a || x > b) {
+            return Err(Error::Invalid(format!("fixed point {} lies outside the box", p.show())));
+        }
+    }
+    Ok(())
+}
