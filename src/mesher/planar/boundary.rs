@@ -231,8 +231,8 @@ pub(super) fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &
     let mut newp = p.to_vec();
     for i in 0..p.len() {
         let q = match snap.kind[i] {
-            BOUNDARY => ctx.project(p[i])?,
-            INTERNAL => ctx.project_internal(p[i])?,
+            NodeKind::Boundary => ctx.project(p[i])?,
+            NodeKind::Internal => ctx.project_internal(p[i])?,
             _ => None,
         };
         if let Some(q) = q {

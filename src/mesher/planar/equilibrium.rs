@@ -74,7 +74,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         eprintln!("equilibrium entered, peak {}", peak_memory());
         let mut val = [0usize; 12];
         for i in 0..p.len() {
-            if snap.kind[i] == INTERIOR {
+            if snap.kind[i] == NodeKind::Interior {
                 val[((snap.adj_start[i + 1] - snap.adj_start[i]) as usize).min(11)] += 1;
             }
         }
@@ -82,7 +82,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             "start: q mean {:.5}, {} vertices ({} fixed), interior valences {:?}, peak {}",
             mean_quality(ctx, &snap, &p),
             p.len(),
-            snap.kind.iter().filter(|&&k| k == FIXED).count(),
+            snap.kind.iter().filter(|&&k| k == NodeKind::Fixed).count(),
             val,
             peak_memory()
         );
@@ -166,7 +166,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 .into_par_iter()
                 .with_min_len(CHUNK)
                 .map(|i| {
-                    if snap.kind[i] != INTERIOR {
+                    if snap.kind[i] != NodeKind::Interior {
                         return Ok(DVec2::ZERO);
                     }
                     let d = ctx.approx_dist(p[i])?;
@@ -191,7 +191,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             .with_min_len(CHUNK)
             .map(|&i| {
                 let i = i as usize;
-                if snap.kind[i] == FIXED {
+                if snap.kind[i] == NodeKind::Fixed {
                     return p[i];
                 }
                 let mut f = DVec2::ZERO;
@@ -225,7 +225,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             .par_iter()
             .with_min_len(CHUNK)
             .map(|&i| i as usize)
-            .filter(|&i| snap.kind[i] == INTERIOR)
+            .filter(|&i| snap.kind[i] == NodeKind::Interior)
             .map(|i| step(i, &newp))
             .reduce(|| 0.0, f64::max);
         // Boundary membership follows the forces, as the seed's retriangulation lets it: a
@@ -234,7 +234,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         let mut leaving: Vec<(usize, DVec2)> = Vec::new();
         for &i in &active {
             let i = i as usize;
-            if snap.kind[i] == BOUNDARY && snap.loop_nbrs[i].0 != u32::MAX {
+            if snap.kind[i] == NodeKind::Boundary && snap.loop_nbrs[i].0 != u32::MAX {
                 let (a, c) = snap.loop_nbrs[i];
                 if orient2d(p[a as usize], newp[i], p[c as usize]) == Sign::Positive {
                     leaving.push((i, newp[i]));
@@ -268,7 +268,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             .filter_map(|i| match snap.kind[i] {
                 // Boundary nodes inside move freely (the carved start's outer row) and are
                 // projected once outside (seed step 7), as the pressure keeps them there.
-                BOUNDARY => {
+                NodeKind::Boundary => {
                     let d = match ctx.approx_dist(newp[i]) {
                         Ok(d) => d,
                         Err(e) => return Some(Err(e)),
@@ -291,7 +291,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                         None
                     }
                 }
-                INTERIOR => match ctx.approx_dist(newp[i]) {
+                NodeKind::Interior => match ctx.approx_dist(newp[i]) {
                     Ok(d) if d > -ctx.geps => Some(Ok((i, p[i]))),
                     Ok(_) => match ctx.crosses_internal(p[i], newp[i]) {
                         // Held back, marked to join the internal boundary (NaN marker).
@@ -304,7 +304,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 // Internal-boundary nodes back onto d_I = 0 every step: they slide along it, but
                 // never past a neighbour along it (near a corner of the curve the projection
                 // could jump to the far side of the corner).
-                INTERNAL => match ctx.project_internal(newp[i]) {
+                NodeKind::Internal => match ctx.project_internal(newp[i]) {
                     Ok(Some(q)) if snap.keeps_curve_order(i, &p, q) => Some(Ok((i, q))),
                     Ok(Some(_)) => Some(Ok((i, p[i]))),
                     Ok(None) => Some(Ok((i, p[i]))),
@@ -332,7 +332,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             .par_iter()
             .with_min_len(CHUNK)
             .map(|&i| i as usize)
-            .filter(|&i| snap.kind[i] == BOUNDARY || snap.kind[i] == INTERNAL)
+            .filter(|&i| snap.kind[i] == NodeKind::Boundary || snap.kind[i] == NodeKind::Internal)
             .map(|i| step(i, &newp))
             .reduce(|| 0.0, f64::max);
         let max_move = interior_move.max(boundary_move);

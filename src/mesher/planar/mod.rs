@@ -33,7 +33,7 @@ use crate::geometry::Implicit2;
 use crate::mesher::input::{eval_d, eval_h_floor, survey};
 use crate::mesher::internal::{self, Internal};
 use crate::mesher::metric::{self, eval_metric, metric_triangle_q, Metric2, MetricFn2};
-use crate::mesher::truss::{self, bar_force, det_sum, Backoff, DensityBand, Marks, RestScale, CHUNK};
+use crate::mesher::truss::{self, bar_force, det_sum, Backoff, DensityBand, Marks, NodeKind, RestScale, CHUNK};
 use crate::mesher::MeshOutput2;
 use crate::mesher::Report;
 use crate::predicates::{orient2d, Sign};
@@ -75,12 +75,6 @@ const ADAPT_ROUNDS: usize = 8;
 /// With a metric, an edge flips only when the worse of its two triangles gains this share of
 /// metric quality.
 const METRIC_FLIP_GAIN: f64 = 0.02;
-
-/// Vertex kinds in the compact arrays.
-const INTERIOR: u8 = 0;
-const BOUNDARY: u8 = 1;
-const FIXED: u8 = 2;
-const INTERNAL: u8 = 3;
 
 /// Edge kinds in the snapshot.
 const EDGE_INTERIOR: u8 = 0;

@@ -11,7 +11,7 @@ pub(super) const EDGE_INTERFACE: u8 = 2;
 #[derive(Default)]
 pub(super) struct Snapshot {
     pub(super) ids: Vec<VertexId>,
-    pub(super) kind: Vec<u8>,
+    pub(super) kind: Vec<NodeKind>,
     pub(super) adj_start: Vec<u32>,
     pub(super) adj: Vec<u32>,
     pub(super) tris: Vec<[u32; 3]>,
@@ -40,12 +40,7 @@ impl Snapshot {
         for (v, vx) in m.vertices() {
             index.insert(v, ids.len() as u32);
             ids.push(v);
-            kind.push(match vx.tag {
-                VertexTag::Fixed => FIXED,
-                VertexTag::Boundary => BOUNDARY,
-                VertexTag::InternalBoundary { .. } => INTERNAL,
-                VertexTag::Interior => INTERIOR,
-            });
+            kind.push(NodeKind::of(vx.tag));
         }
         // Edges in one pass over the half-edges; the adjacency (CSR) is filled from them.
         let mut edges = Vec::with_capacity(m.num_edges());

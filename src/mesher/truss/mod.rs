@@ -13,6 +13,34 @@
 /// since the last look (every mesher; the seed retriangulates there).
 pub(crate) const TTOL: f64 = 0.1;
 
+/// What a node of a force loop is, which says how it moves (the same in every mesher).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum NodeKind {
+    /// Free: moved by the bar forces alone.
+    Interior,
+    /// On the boundary: moved by the forces, then projected onto d = 0.
+    Boundary,
+    /// Held where it is (given fixed points, sharp features, a frozen far field).
+    Fixed,
+    /// On an internal boundary d_I = 0 (2-D): moved, then projected onto it.
+    Internal,
+    /// Removed from the mesh since the snapshot was built (a 3-D snapshot refresh).
+    Dead,
+}
+
+impl NodeKind {
+    /// The kind of a vertex of the given tag.
+    pub(crate) fn of(tag: crate::topology::VertexTag) -> Self {
+        use crate::topology::VertexTag;
+        match tag {
+            VertexTag::Fixed => NodeKind::Fixed,
+            VertexTag::Boundary => NodeKind::Boundary,
+            VertexTag::InternalBoundary { .. } => NodeKind::Internal,
+            VertexTag::Interior => NodeKind::Interior,
+        }
+    }
+}
+
 pub(crate) mod band;
 pub(crate) mod domain;
 pub(crate) mod force;

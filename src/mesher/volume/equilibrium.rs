@@ -7,8 +7,9 @@ use super::carve::{carve, stuck_tets};
 use super::density::density_control;
 use super::improve::try_swaps;
 use super::report::QualityStats3;
-use super::snapshot::{mean_rr, write_back, PhaseClock, Snapshot, BOUNDARY, FIXED, INTERIOR};
+use super::snapshot::{mean_rr, write_back, PhaseClock, Snapshot};
 use super::{Ctx, CHUNK, GEPS};
+use crate::mesher::truss::NodeKind;
 use crate::mesher::truss::{self, bar_force, det_sum, RestScale};
 use crate::mesher::StopReason;
 use crate::quality::{dihedral_quality_cos_bounds, tet_dihedral_quality, tet_dihedral_quality_below};
@@ -124,7 +125,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             .into_par_iter()
             .with_min_len(CHUNK)
             .map(|i| {
-                if snap.kind[i] == FIXED {
+                if snap.kind[i] == NodeKind::Fixed {
                     return p[i];
                 }
                 let mut f = DVec3::ZERO;
@@ -142,7 +143,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         let fixes: Vec<(usize, DVec3)> = (0..p.len())
             .into_par_iter()
             .with_min_len(256)
-            .filter(|&i| snap.kind[i] == BOUNDARY)
+            .filter(|&i| snap.kind[i] == NodeKind::Boundary)
             .map(|i| Ok((i, ctx.project(newp[i])?.unwrap_or(p[i]))))
             .collect::<Result<_, Error>>()?;
         for (i, q) in fixes {
@@ -154,7 +155,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         let max_move = (0..p.len())
             .into_par_iter()
             .with_min_len(CHUNK)
-            .filter(|&i| snap.kind[i] == INTERIOR)
+            .filter(|&i| snap.kind[i] == NodeKind::Interior)
             .map(|i| newp[i].distance(p[i]) / (h0 * hv[i]))
             .reduce(|| 0.0, f64::max);
         p = newp;
@@ -230,7 +231,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         let flat: Vec<usize> = (0..snap.tets.len())
             .into_par_iter()
             .with_min_len(CHUNK)
-            .filter(|&k| snap.tets[k].iter().filter(|&&i| snap.kind[i as usize] != INTERIOR).count() >= 3)
+            .filter(|&k| snap.tets[k].iter().filter(|&&i| snap.kind[i as usize] != NodeKind::Interior).count() >= 3)
             .map(|k| {
                 let t = snap.tets[k];
                 let c = (p[t[0] as usize] + p[t[1] as usize] + p[t[2] as usize] + p[t[3] as usize]) / 4.0;
@@ -285,7 +286,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             let off: Vec<usize> = (0..p.len())
                 .into_par_iter()
                 .with_min_len(CHUNK)
-                .filter(|&i| snap.kind[i] == BOUNDARY)
+                .filter(|&i| snap.kind[i] == NodeKind::Boundary)
                 .map(|i| Ok((i, ctx.approx_dist(p[i])?.abs() > 1e-3 * h0)))
                 .collect::<Result<Vec<_>, Error>>()?
                 .into_iter()
@@ -349,8 +350,8 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             // The state a rebuild would give: the apexes' new kind, the tets in arena order
             // without the removed ones, the movement references reset.
             for i in joined {
-                if snap.kind[i] == INTERIOR && m.tag(snap.ids[i]) == VertexTag::Boundary {
-                    snap.kind[i] = BOUNDARY;
+                if snap.kind[i] == NodeKind::Interior && m.tag(snap.ids[i]) == VertexTag::Boundary {
+                    snap.kind[i] = NodeKind::Boundary;
                 }
             }
             for (a, b) in lost {
@@ -384,7 +385,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
                     let q = crate::quality::tet_radius_ratio(t.map(|i| p[i as usize]));
                     let qq = tet_dihedral_quality(t.map(|i| p[i as usize]));
                     bins[((qq.max(0.0) * 10.0) as usize).min(5)] += 1;
-                    if t.iter().all(|&i| snap.kind[i as usize] == INTERIOR) {
+                    if t.iter().all(|&i| snap.kind[i as usize] == NodeKind::Interior) {
                         si += q;
                         ni += 1;
                     } else {

@@ -1,7 +1,7 @@
 //! The force loop's compact arrays of the mesh (patched after local changes instead of rebuilt),
 //! the step control that keeps every tet positive, and the wall-time clock per phase.
 
-use crate::mesher::truss::{self, det_sum, Backoff};
+use crate::mesher::truss::{self, det_sum, Backoff, NodeKind};
 
 /// Step control: a vertex of a tet a step would invert steps back halfway at most this many
 /// times, then stays where it was.
@@ -14,11 +14,6 @@ use slotmap::SecondaryMap;
 use smallvec::SmallVec;
 use std::time::Instant;
 
-pub(super) const INTERIOR: u8 = 0;
-pub(super) const BOUNDARY: u8 = 1;
-pub(super) const FIXED: u8 = 2;
-/// A vertex removed since the snapshot was built (see [`Snapshot::refresh`]).
-pub(super) const DEAD: u8 = 3;
 /// Free entries at the end of each neighbour row of the snapshot, so that a refresh after
 /// local flips rewrites the touched rows in place.
 const ROW_SLACK: usize = 4;
@@ -28,7 +23,7 @@ pub(super) struct Snapshot {
     pub(super) ids: Vec<TVertexId>,
     /// Position of each vertex in `ids`.
     index: SecondaryMap<TVertexId, u32>,
-    pub(super) kind: Vec<u8>,
+    pub(super) kind: Vec<NodeKind>,
     pub(super) tets: Vec<[u32; 4]>,
     pub(super) tet_ids: Vec<TetId>,
     /// Each vertex's row in `adj` (start, end): rows are contiguous after a build; a refresh
@@ -42,11 +37,11 @@ pub(super) struct Snapshot {
     spent: usize,
 }
 
-fn kind_of(tag: VertexTag) -> u8 {
-    match tag {
-        VertexTag::Fixed => FIXED,
-        VertexTag::Boundary => BOUNDARY,
-        _ => INTERIOR,
+fn kind_of(tag: VertexTag) -> NodeKind {
+    match NodeKind::of(tag) {
+        // No internal boundaries in 3-D.
+        NodeKind::Internal => NodeKind::Interior,
+        k => k,
     }
 }
 
@@ -167,7 +162,7 @@ impl Snapshot {
 
     /// Brings the snapshot up to date after local topology changes: the kinds and the tets are
     /// read again, and only the rows of the vertices the journal names are recomputed. A vertex
-    /// removed stays as a DEAD entry with an empty row; a vertex added is appended with a row
+    /// removed stays as a NodeKind::Dead entry with an empty row; a vertex added is appended with a row
     /// of its own. The loops skip the self-entries and the dead, so the forces are a rebuild's.
     /// False when the dead and added entries and the moved rows pass 1/8 of the vertices:
     /// rebuild then.
@@ -180,7 +175,7 @@ impl Snapshot {
             if !m.contains_vertex(v) {
                 if let Some(i) = self.index.remove(v) {
                     let i = i as usize;
-                    self.kind[i] = DEAD;
+                    self.kind[i] = NodeKind::Dead;
                     let row = self.range(i);
                     self.adj[row].fill(i as u32);
                     self.spent += 1;
@@ -191,16 +186,16 @@ impl Snapshot {
             if m.contains_vertex(v) && !self.index.contains_key(v) {
                 self.index.insert(v, self.ids.len() as u32);
                 self.ids.push(v);
-                self.kind.push(INTERIOR);
+                self.kind.push(NodeKind::Interior);
                 self.spent += 1;
             }
         }
-        let alive = self.ids.len() - self.kind.iter().filter(|&&k| k == DEAD).count();
+        let alive = self.ids.len() - self.kind.iter().filter(|&&k| k == NodeKind::Dead).count();
         if alive != m.num_vertices() || 8 * self.spent > self.ids.len() {
             return false;
         }
         for (k, &v) in self.ids.iter().enumerate() {
-            if self.kind[k] != DEAD {
+            if self.kind[k] != NodeKind::Dead {
                 self.kind[k] = kind_of(m.tag(v));
             }
         }

@@ -4,9 +4,10 @@
 use super::carve::{count_pieces, drop_specks};
 use super::options::Options3;
 use super::smoothing::{star_rr_sum, StarRr};
-use super::snapshot::{Snapshot, DEAD};
+use super::snapshot::Snapshot;
 use super::Ctx;
 use crate::geometry::project::Projection;
+use crate::mesher::truss::NodeKind;
 use crate::mesher::Report;
 use crate::topology::{Level, TVertexId, TetId, TetMesh, EDGE_VERTICES};
 use glam::DVec3;
@@ -24,12 +25,12 @@ fn star_rr_sums_the_radius_ratios() {
 }
 
 /// A snapshot in vertex keys: (vertex, kind, sorted neighbours) and (tet, corners).
-type Keyed = (Vec<(TVertexId, u8, Vec<TVertexId>)>, Vec<(TetId, [TVertexId; 4])>);
+type Keyed = (Vec<(TVertexId, NodeKind, Vec<TVertexId>)>, Vec<(TetId, [TVertexId; 4])>);
 
 /// The snapshot in vertex keys, for comparing snapshots whose indices differ.
 fn by_key(s: &Snapshot) -> Keyed {
-    let mut verts: Vec<(TVertexId, u8, Vec<TVertexId>)> = (0..s.ids.len())
-        .filter(|&i| s.kind[i] != DEAD)
+    let mut verts: Vec<(TVertexId, NodeKind, Vec<TVertexId>)> = (0..s.ids.len())
+        .filter(|&i| s.kind[i] != NodeKind::Dead)
         .map(|i| {
             let mut nb: Vec<TVertexId> =
                 s.row(i).iter().filter(|&&j| j as usize != i).map(|&j| s.ids[j as usize]).collect();
