@@ -75,7 +75,7 @@ fn empty_mask_is_an_empty_domain() {
         other => panic!("{:?}", other.map(|o| o.report)),
     }
     let bad = ImageOptions { threshold: 2.0, ..ImageOptions::default() };
-    assert!(matches!(mesh_image(&vec![1.0; 16], 4, 4, &bad), Err(Error::Invalid(_))));
+    assert!(matches!(mesh_image(&[1.0; 16], 4, 4, &bad), Err(Error::Invalid(_))));
     assert!(matches!(mesh_image(&[1.0; 3], 4, 4, &ImageOptions::default()), Err(Error::Invalid(_))));
 }
 

@@ -132,7 +132,10 @@ fn internal_boundaries_are_deterministic() {
     assert_eq!(a.mesh.to_arrays(), b.mesh.to_arrays());
 }
 
-fn circles_and_polygons() -> impl Strategy<Value = (Vec<(f64, f64, f64)>, Vec<(f64, f64, f64, usize, f64)>)> {
+/// Circles (cx, cy, r) and regular polygons (cx, cy, r, sides, rotation).
+type Shapes = (Vec<(f64, f64, f64)>, Vec<(f64, f64, f64, usize, f64)>);
+
+fn circles_and_polygons() -> impl Strategy<Value = Shapes> {
     // Shapes in separate cells of a 2 x 2 grid over the unit square, so that they never
     // cross: circles (cx, cy, r) and regular polygons (cx, cy, r, sides, rotation).
     (

@@ -521,11 +521,10 @@ fn boundary_tags_protect_the_hull() {
     let tets: Vec<TetId> = m.tet_ids().collect();
     let mut accepted = 0;
     for t in tets {
-        for e in 0..6 {
+        for (e, &[i, j]) in EDGE_VERTICES.iter().enumerate() {
             if !m.contains_tet(t) {
                 break;
             }
-            let [i, j] = EDGE_VERTICES[e];
             let (a, b) = (m.tet(t).v[i], m.tet(t).v[j]);
             if m.tag(a) == VertexTag::Interior && m.collapse(t, e, false, m.pos(b)).is_ok() {
                 accepted += 1;

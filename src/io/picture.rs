@@ -139,9 +139,9 @@ fn flat_3d(m: &MeshData, q: &[f64]) -> Flat {
     let mut faces: Vec<([DVec3; 3], Rgb, bool)> = Vec::new();
     match m.cell_type {
         CellType::Triangle => {
-            for i in 0..m.num_cells() {
+            for (i, &qi) in q.iter().enumerate().take(m.num_cells()) {
                 let c = m.cell(i);
-                faces.push(([pt(m, c[0]), pt(m, c[1]), pt(m, c[2])], quality_color(q[i]), true));
+                faces.push(([pt(m, c[0]), pt(m, c[1]), pt(m, c[2])], quality_color(qi), true));
             }
         }
         CellType::Tetra => {
@@ -153,10 +153,10 @@ fn flat_3d(m: &MeshData, q: &[f64]) -> Flat {
             let keep: Vec<bool> = (0..m.num_cells())
                 .map(|i| m.cell(i).iter().map(|&v| m.points[v][0]).sum::<f64>() / 4.0 <= mid)
                 .collect();
-            for i in 0..m.num_cells() {
+            for (i, &kept_cell) in keep.iter().enumerate() {
                 for f in cell_facets(CellType::Tetra, m.cell(i)) {
                     let s = sorted(&f);
-                    if keep[i] {
+                    if kept_cell {
                         *kept.entry(s.clone()).or_insert(0) += 1;
                     }
                     *total.entry(s).or_insert(0) += 1;
@@ -238,12 +238,12 @@ fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
     if let (2, Some(labels)) = (m.dim, &m.subdomain) {
         let mut seen: std::collections::HashMap<(usize, usize), i32> = std::collections::HashMap::new();
         let mut interface = Vec::new();
-        for i in 0..m.num_cells() {
+        for (i, &label) in labels.iter().enumerate().take(m.num_cells()) {
             let c = m.cell(i);
             for k in 0..3 {
                 let (a, b) = (c[k].min(c[(k + 1) % 3]), c[k].max(c[(k + 1) % 3]));
-                match seen.insert((a, b), labels[i]) {
-                    Some(l) if l != labels[i] => interface.push((a, b)),
+                match seen.insert((a, b), label) {
+                    Some(l) if l != label => interface.push((a, b)),
                     _ => {}
                 }
             }

@@ -153,10 +153,8 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                     a.text.push_str(&txt);
                 }
             }
-            Event::CData(_) => {
-                if current.is_some() {
-                    return Err(perr(path, line, "binary/appended vtu data not supported (CDATA)"));
-                }
+            Event::CData(_) if current.is_some() => {
+                return Err(perr(path, line, "binary/appended vtu data not supported (CDATA)"));
             }
             Event::Eof => break,
             _ => {}

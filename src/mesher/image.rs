@@ -188,10 +188,10 @@ impl Implicit2 for Scaled<'_> {
 /// Meshes the region of an image: distance by fast marching, an automatic size function
 /// (feature size and gradient limiting, seed chapter 4), then [`mesh_2d`].
 pub fn mesh_image(grey: &[f64], w: usize, h: usize, opts: &ImageOptions) -> Result<MeshOutput2, Error> {
-    if !(opts.h0.is_finite() && opts.h0 > 0.0)
-        || !(opts.scale.is_finite() && opts.scale > 0.0)
-        || !(opts.max_ratio >= 1.0)
-    {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    // NaN fails every comparison: a ratio of NaN is refused with the rest.
+    let ratio_ok = opts.max_ratio.partial_cmp(&1.0).is_some_and(|o| o.is_ge());
+    if !(positive(opts.h0) && positive(opts.scale) && ratio_ok) {
         return Err(Error::BadSize(format!(
             "h0 {} and scale {} must be positive and the size ratio {} at least 1",
             opts.h0, opts.scale, opts.max_ratio

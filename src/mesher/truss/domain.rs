@@ -76,7 +76,7 @@ pub(crate) fn check_input<P: DomainPoint>(h0: f64, lo: P, hi: P, fixed: &[P]) ->
     if l.iter().chain(&u).any(|x| !x.is_finite()) {
         return Err(Error::BadBox(format!("the box {} - {} is not finite", lo.show(), hi.show())));
     }
-    if l.iter().zip(&u).any(|(a, b)| !(b > a)) {
+    if l.iter().zip(&u).any(|(a, b)| b.partial_cmp(a) != Some(std::cmp::Ordering::Greater)) {
         return Err(Error::BadBox(format!(
             "the box {} - {} is empty or inverted: each max must exceed its min",
             lo.show(),
