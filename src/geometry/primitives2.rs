@@ -145,7 +145,7 @@ impl Polygon {
             let t = if l2 > 0.0 { ((p - a).dot(e) / l2).clamp(0.0, 1.0) } else { 0.0 };
             let q = a + t * e;
             let d2 = (p - q).length_squared();
-            if best.map_or(true, |(bd, _, _)| d2 < bd) {
+            if best.is_none_or(|(bd, _, _)| d2 < bd) {
                 best = Some((d2, q, i));
             }
         }

@@ -311,7 +311,7 @@ fn second_order_step<const N: usize>(g: &impl Geom<N>, x: Vector<N>, phi: f64, g
         if first_non_finite(&step).is_some() {
             continue;
         }
-        if best.map_or(true, |(bt, _)| t.abs() < bt.abs()) {
+        if best.is_none_or(|(bt, _)| t.abs() < bt.abs()) {
             best = Some((t, step));
         }
     }

@@ -169,7 +169,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
     }
     let (npts, ncells, hline) = header.ok_or_else(|| perr(path, last_line, "no Piece element in the vtu file"))?;
     let find = |parent: &str, name: Option<&str>| {
-        arrays.iter().find(|a| a.parent == parent && name.map_or(true, |n| a.name == n))
+        arrays.iter().find(|a| a.parent == parent && name.is_none_or(|n| a.name == n))
     };
 
     // Points.

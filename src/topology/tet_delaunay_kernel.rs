@@ -235,11 +235,10 @@ impl Kernel {
             }
             // The other three faces hold p and one edge of the boundary face: glue them to the
             // new tet on the other side of that edge.
-            for j in 0..4 {
+            for (j, &[k, l]) in OTHER_TWO[i].iter().enumerate() {
                 if j == i {
                     continue;
                 }
-                let [k, l] = OTHER_TWO[i][j];
                 let (a, c) = (v[k], v[l]);
                 let code = (s << 2) | j as u32;
                 if let Some(other) = self.edges.take_or_put(a.min(c), a.max(c), code) {

@@ -151,7 +151,7 @@ fn refine(
                     // Taken a little inside: on d = 0 a distance built from unsigned distances
                     // has a kink, and its gradient there can be anything.
                     let m = normal(q - n * (1e-3 * delta));
-                    if m.length_squared() > 0.5 && best.map_or(true, |(c, _, _)| m.dot(n) > c) {
+                    if m.length_squared() > 0.5 && best.is_none_or(|(c, _, _)| m.dot(n) > c) {
                         best = Some((m.dot(n), q, m));
                     }
                 }

@@ -190,7 +190,7 @@ pub(super) fn candidate_edges(
         if q < Q_TRY {
             for x in m.face_half_edges(f) {
                 let (a, b) = (m.origin(x), m.dest(x));
-                if dirty.map_or(true, |d| d.contains_key(a) || d.contains_key(b)) {
+                if dirty.is_none_or(|d| d.contains_key(a) || d.contains_key(b)) {
                     edges.push((q, a, b));
                 }
             }

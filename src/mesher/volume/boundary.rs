@@ -202,7 +202,7 @@ fn merge_into_boundary_neighbour(ctx: &mut Ctx, m: &mut TetMesh, v: TVertexId) -
         let e = edge_index(m, t, v, w);
         let reverse = m.tet(t).v[EDGE_VERTICES[e][0]] != v;
         if let Ok(plan) = m.check_collapse(t, e, reverse, m.pos(w)) {
-            if plan.min_quality > 0.0 && best.as_ref().map_or(true, |b| plan.min_quality > b.0) {
+            if plan.min_quality > 0.0 && best.as_ref().is_none_or(|b| plan.min_quality > b.0) {
                 best = Some((plan.min_quality, plan));
             }
         }

@@ -136,7 +136,7 @@ fn refine_edge_point(ctx: &Ctx, p: DVec3, n1: DVec3, n2: DVec3, s: f64) -> Resul
             for dir in [across, -across] {
                 if let Some(q) = ctx.project(x + dir * delta)? {
                     let m = ctx.domain.gradient(q - n * (1e-3 * delta)).normalize_or_zero();
-                    if m.length_squared() > 0.5 && best.map_or(true, |(c, _, _)| m.dot(n) > c) {
+                    if m.length_squared() > 0.5 && best.is_none_or(|(c, _, _)| m.dot(n) > c) {
                         best = Some((m.dot(n), q, m));
                     }
                 }

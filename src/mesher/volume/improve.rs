@@ -128,7 +128,7 @@ fn find_swap(ctx: &Ctx, m: &TetMesh, t: TetId) -> Result<Option<Swap>, Error> {
         let s = m.edge_shell(t, i, j);
         let old = s.tets.iter().map(|&u| tet_dihedral_quality(m.tet_points(u))).fold(f64::INFINITY, f64::min);
         if let Some((plan, q)) = ring_patch(ctx, m, &s, true)? {
-            if q > old + 1e-6 && best.as_ref().map_or(true, |b| q - old > b.0) {
+            if q > old + 1e-6 && best.as_ref().is_none_or(|b| q - old > b.0) {
                 best = Some((q - old, plan));
             }
         }
@@ -143,7 +143,7 @@ fn find_swap(ctx: &Ctx, m: &TetMesh, t: TetId) -> Result<Option<Swap>, Error> {
             .min(tet_dihedral_quality([q, r, d, e]))
             .min(tet_dihedral_quality([r, p, d, e]));
         let old = tet_dihedral_quality(m.tet_points(t)).min(tet_dihedral_quality(m.tet_points(u)));
-        if newq > old + 1e-6 && best.as_ref().map_or(true, |b| newq - old > b.0) {
+        if newq > old + 1e-6 && best.as_ref().is_none_or(|b| newq - old > b.0) {
             if let Ok(plan) = m.check_flip23(t, f) {
                 best = Some((newq - old, plan));
             }
