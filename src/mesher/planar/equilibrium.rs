@@ -3,11 +3,8 @@ use crate::mesher::StopReason;
 
 /// Density control runs every this many iterations (a window).
 pub(super) const DENSITY_EVERY: usize = 10;
-/// The window of large meshes (over RELAYOUT_ABOVE vertices): a window ends in one topology
-/// update (density control and flips, then one snapshot rebuild) and starts with a full sweep,
-/// and at 10^6 triangles these cost more than the partial steps between them. Measured on
-/// the unit disk from 5x10^4 to 10^6 triangles: the same quality as windows of 10 (q min 0.79
-/// to 0.89 either way, q mean within 1e-4) in 0.75 to 0.9 of the time.
+/// The window of large meshes (over RELAYOUT_ABOVE vertices): one topology update and one
+/// full sweep per window, which at 10^6 triangles cost more than the partial steps between.
 pub(super) const LARGE_WINDOW: usize = 20;
 /// Between full sweeps, a node that moved less than this many local sizes in a step, with
 /// neighbours that did too, is settled and skipped (a tenth of the default dptol).
@@ -19,13 +16,11 @@ pub(super) const PLATEAU_WINDOWS: usize = 30;
 /// With a metric, density control splits above and collapses below these metric lengths
 /// (wider bands leave the truss too coarse inside and too crowded in a boundary layer).
 pub(super) const METRIC_BAND: DensityBand = DensityBand::new(1.45, 0.65);
-/// Starting from a previous mesh (moving meshes, remeshing), density control splits above and
-/// collapses below these target lengths: areas change, and the wide band of a fresh start
-/// would let a growing region coarsen to twice its size.
+/// Density control from a previous mesh (moving meshes, remeshing): a narrower band, as areas
+/// change and a fresh start's wide band would let a growing region coarsen twofold.
 pub(super) const MOVING_BAND: DensityBand = DensityBand::new(1.5, 0.6);
-/// The same for a moving-mesh step with freezing: the held far field passes no pressure on,
-/// so the nodes a moving boundary leaves behind are collapsed sooner (from 0.82 target
-/// lengths), before the distorted triangles are frozen into its wake.
+/// Density control of a moving-mesh step with freezing: collapses from 0.82 target lengths,
+/// before the distortion a moving boundary leaves behind is frozen into its wake.
 pub(super) const FREEZING_BAND: DensityBand = DensityBand::new(1.5, 0.82);
 /// The force loop (seed section 2.3): forward Euler steps of the truss with boundary
 /// projection and step control, connectivity by exact in-circle flips, boundary membership

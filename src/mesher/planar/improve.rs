@@ -25,15 +25,10 @@ pub(super) const RELAX_ITERS: usize = 40;
 /// The re-equilibration stops once no node moves more than this many rest lengths in a step.
 pub(super) const RELAX_TOL: f64 = 1e-3;
 /// The search ranks states by q mean - SIZE_WEIGHT * size deviation: a change may give up a
-/// little mean quality for twice as much less size deviation. Measured against 0 (mean quality
-/// alone) on the seed's 2-D examples: size deviation ex8 2.7% -> 2.3%, ex5 3.0 -> 2.8, ex3b
-/// 4.3 -> 4.1; q mean ex5 0.9717 -> 0.9746, ex8 0.9806 -> 0.9823, ex3a 0.9810 -> 0.9750, ex3b
-/// 0.9663 -> 0.9628. With 1: ex3a 0.9730, ex3b 0.9617 / 3.8%.
+/// little mean quality for twice as much less size deviation.
 pub(super) const SIZE_WEIGHT: f64 = 0.5;
-/// Meshes with more triangles are not searched: every trial copies and measures the whole
-/// mesh, so the search grows faster than the mesh (9 865 triangles: 0.8 s, six times the
-/// force loop), and on fine meshes the poor triangles along the boundary weigh little in the
-/// mean.
+/// Meshes with more triangles are not searched: each trial measures the whole mesh, and on
+/// fine meshes the poor boundary triangles weigh little in the mean.
 pub(super) const SEARCH_MAX_FACES: usize = 5_000;
 /// Polish sweeps over the relaxed nodes of a trial: a change is judged by the mesh the polish
 /// would make of it.

@@ -46,16 +46,11 @@ use report::QualityStats;
 use slotmap::SecondaryMap;
 use std::time::Instant;
 
-/// Initial refinement splits edges longer than this many target lengths (between one lattice
-/// level and the next). The square root of 2 leaves edges between 1/sqrt(2) and sqrt(2) targets,
-/// even in ratio about 1: with 1.5 (edges between 0.75 and 1.5) example 3b started 1.2 times
-/// too coarse (360 triangles where its size asks for about 490) and ended at q mean 0.9628, size
-/// deviation 4.1%; with the square root of 2, 447 triangles, 0.9639, 3.6% (the polish since).
-/// The density control of sizes acts only beyond 2 targets, so the start sets the node count.
+/// Initial refinement splits edges longer than this many target lengths: edges end between
+/// 1/sqrt(2) and sqrt(2) targets, so the start has the node count the sizes ask for.
 const INIT_SPLIT: f64 = std::f64::consts::SQRT_2;
 /// [`INIT_SPLIT`] with a metric, whose density control (METRIC_BAND) sets the edge lengths
-/// itself: figure 3-6's boundary layer came out thinner from this start (0.0108 against 0.0151
-/// with the square root of 2; its test asks at most 0.015).
+/// itself; this start leaves boundary layers as thin as the metric asks.
 const INIT_SPLIT_METRIC: f64 = 1.5;
 /// Density control of a fresh mesh splits edges longer than 2 and collapses edges shorter
 /// than 0.4 target lengths (a wide hysteresis band: the forces set the lengths in between).

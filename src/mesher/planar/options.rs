@@ -88,9 +88,8 @@ impl Options2 {
     pub const DEFAULT_MAX_ELEMENTS: u64 = 50_000_000;
     /// Default internal pressure (seed: 1.2 in 2-D).
     pub const DEFAULT_FSCALE: f64 = 1.2;
-    /// Internal pressure with a metric: lower than in the isotropic mode, where the layers of
-    /// a boundary layer would otherwise crowd against the boundary (measured on the seed's
-    /// figure 3-6: 1.2 gives 88% of edges in [0.707, 1.414], 1.05 gives 96%).
+    /// Internal pressure with a metric: lower than the isotropic 1.2, which crowds the rows of
+    /// a boundary layer against the boundary.
     pub const METRIC_FSCALE: f64 = 1.05;
     /// Default time step (seed: 0.2).
     pub const DEFAULT_DELTAT: f64 = 0.2;

@@ -19,9 +19,8 @@ use slotmap::SecondaryMap;
 
 /// Sweeps over the interior nodes at most.
 pub(super) const SWEEPS: usize = 30;
-/// Meshes with more triangles are not polished: they are mostly the lattice interior the
-/// truss leaves near equilateral, and the sweeps cost more than the whole force loop (2x10^5
-/// triangles: 2.9 s, q mean 0.9993 before and after).
+/// Meshes with more triangles are not polished: they are mostly the near-equilateral lattice
+/// interior, where the sweeps cost more than the force loop and gain nothing.
 pub(super) const POLISH_MAX_FACES: usize = 20_000;
 /// A node that gains less merit than this in a try rests until a neighbour gains more.
 pub(super) const MOVE_GAIN: f64 = 1e-5;
@@ -100,13 +99,8 @@ pub(super) fn rel_radius(t: [DVec2; 3], h: &dyn Fn(DVec2) -> Result<f64, Error>)
     Ok(r / h((t[0] + t[1] + t[2]) / 3.0)?)
 }
 
-/// Weight of the size term in the polish's merit: per triangle q - SIZE_PULL (rho / rho_mean - 1)^2,
-/// rho the relative circumradius. Measured on example 3b (447 triangles), gradient steps alone
-/// run to convergence on every interior node and the hole's boundary nodes: 0 gives q mean
-/// 0.9753 at size deviation 8.0% (shape bought with size), 3 gives 0.9710 / 4.3%, 5 gives
-/// 0.9689 / 3.6% (the size deviation the equilibrium left), 10 gives 0.9658 / 2.9%. With the
-/// search in the loop (before the start's fill toward the estimate): 3 gives 0.9723 / 4.4%, 4 gives 0.9723 / 3.7%, 5
-/// gives 0.9692 / 3.1%.
+/// Weight of the size term in the polish's merit, per triangle q - SIZE_PULL (rho / rho_mean -
+/// 1)^2 (rho the relative circumradius): shape is not bought with size deviation.
 pub(super) const SIZE_PULL: f64 = 4.0;
 /// The first step of a node, as a fraction of the mean length of its edges, before it has a
 /// step of its own (each node starts from twice its last accepted step).

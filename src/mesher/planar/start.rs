@@ -8,9 +8,8 @@ pub(super) const FILL_TO: f64 = 0.95;
 pub(super) const FILL_ABOVE: f64 = 1.1;
 /// Passes of [`fill_to_estimate`] at most.
 pub(super) const FILL_PASSES: usize = 4;
-/// Plain starts (uniform sizes, no fixed points, no metric, no internal boundaries) estimated at
-/// more triangles than this are refined on flat arrays (well above RELAYOUT_ABOVE vertices, so
-/// that the carved result is laid out by position whichever way it was refined).
+/// Plain starts (uniform sizes, nothing fixed, no metric, no internal boundaries) estimated
+/// above this many triangles are refined on flat arrays.
 pub(super) const ARRAY_START_ABOVE: f64 = 80_000.0;
 /// Seed 3.3.3: one large triangle around the box, refined by rounds of edge splits with
 /// Delaunay flips, skipping edges whose triangles are certainly outside; then carved.

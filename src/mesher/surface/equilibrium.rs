@@ -17,17 +17,16 @@ use slotmap::SecondaryMap;
 
 /// Density control runs every this many force iterations, and not in the last stretch.
 const DENSITY_EVERY: usize = 20;
-/// The force loop stops when its quality score has not beaten the best for PATIENCE
-/// iterations. On the finest level of a subdivided start it stops sooner: when the score has
-/// not risen by SCORE_STEP for FINE_PATIENCE iterations. On large meshes the largest node move
-/// never falls below the tolerance (the slowest modes of a forward-Euler truss relax in a time
-/// that grows with the square of the mesh diameter in edges), and after subdividing a relaxed
-/// coarse mesh only local relaxation is left.
+/// The force loop stops when its score has not beaten the best for PATIENCE iterations (on
+/// large meshes the largest node move never falls below the tolerance).
 const PATIENCE: usize = 60;
 /// Without subdivision the coarsest level is the final mesh: its loop gets more patience (the
 /// score of a start from the fine marching dips before it rises).
 const PATIENCE_ALONE: usize = 250;
+/// On the finest level of a subdivided start (only local relaxation is left there) the loop
+/// stops when the score has not risen by SCORE_STEP for FINE_PATIENCE iterations.
 const FINE_PATIENCE: usize = 5;
+/// See FINE_PATIENCE.
 const SCORE_STEP: f64 = 1e-3;
 /// Triangles below this quality have their edges tried for flips after every force step.
 const WATCH_Q: f64 = 0.8;

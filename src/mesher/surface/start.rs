@@ -22,9 +22,8 @@ const KUHN: [[usize; 4]; 6] = [[0, 1, 3, 7], [0, 1, 5, 7], [0, 2, 3, 7], [0, 2, 
 /// Grid nodes allowed before refusing (about 1 GB of values).
 pub const MAX_GRID_NODES: u64 = 64_000_000;
 
-/// Keeps crossings away from grid nodes: the parameter t along a grid edge is clamped to
-/// [T_CLAMP, 1 - T_CLAMP], which bounds how thin a starting triangle can be. The projection
-/// moves the points onto phi = 0 afterwards.
+/// The crossing parameter along a grid edge is clamped to [T_CLAMP, 1 - T_CLAMP], which bounds
+/// how thin a start triangle can be (the projection moves the points onto phi = 0 after).
 const T_CLAMP: f64 = 0.02;
 
 /// Coarsest start level: the start mesh is made at up to 2^MAX_LEVELS times the target size.

@@ -31,9 +31,8 @@ const DENSITY_EVERY: usize = 10;
 /// over the span: on large meshes single samples wobble long after the trend is flat).
 const QUALITY_PLATEAU: f64 = 1e-4;
 const PLATEAU_WINDOWS: usize = 4;
-/// Lawson flips and sliver swaps in the force loop come at the end of windows of this many
-/// steps, with one snapshot rebuild (at every step they would cost more than the forces);
-/// flat boundary tets still go at every step.
+/// Lawson flips and sliver swaps come at the end of windows of this many steps, with one
+/// snapshot rebuild (at every step they would cost more than the forces).
 const TOPO_EVERY: usize = 5;
 
 /// Runs `step` for up to `rounds` rounds, stopping after a round that changed nothing (or, with

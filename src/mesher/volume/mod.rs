@@ -67,8 +67,7 @@ const RR_SLACK: f64 = 0.01;
 /// Rounds of the final mean-quality pass (swaps and smoothing aimed at the mean radius ratio).
 const RR_ROUNDS: usize = 4;
 /// The mean-quality pass stops after a round that raised the mean radius ratio by less than
-/// this. A second round gains about a tenth of the first: on the unit ball at h0 = 0.15,
-/// 8e-3 then 8e-4; at h0 = 0.033 (10^6 tets) 3.0e-3 then 3e-4, at 2.9 s each.
+/// this (a second round gains about a tenth of the first).
 const RR_ROUND_GAIN: f64 = 5e-3;
 /// The mean-quality pass keeps every local worst dihedral quality at least min(old, this).
 const RR_TQ_FLOOR: f64 = 0.55;

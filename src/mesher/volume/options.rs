@@ -66,8 +66,7 @@ impl Options3 {
     pub const DEFAULT_MAX_ITER: usize = 300;
     /// Default element limit.
     pub const DEFAULT_MAX_ELEMENTS: u64 = 50_000_000;
-    /// Default internal pressure. The seed uses 1.1 in 3-D; see docs/quality.md for the
-    /// measurements behind this value.
+    /// Default internal pressure (the seed uses 1.1 in 3-D).
     pub const DEFAULT_FSCALE: f64 = 1.1;
     /// Default time step (seed: 0.1 in 3-D).
     pub const DEFAULT_DELTAT: f64 = 0.1;
