@@ -16,3 +16,13 @@ pub(crate) const PROBE: f64 = 1e-3;
 pub(crate) const SPACING: f64 = 1.0;
 /// Steps of the refinement onto a curved side or edge (tangents taken ever closer).
 pub(crate) const REFINE_STEPS: usize = 3;
+
+/// The two probe normals that differ most (smallest dot product), with that dot product: a
+/// sample whose probes split this widely lies on a sharp feature itself.
+pub(crate) fn widest_split<P: Copy>(probes: &[P], dot: impl Fn(P, P) -> f64) -> Option<(f64, P, P)> {
+    probes
+        .iter()
+        .flat_map(|&a| probes.iter().map(move |&b| (a, b)))
+        .map(|(a, b)| (dot(a, b), a, b))
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+}

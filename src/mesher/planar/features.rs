@@ -69,10 +69,7 @@ pub(crate) fn find(
         let probes = [DVec2::X, DVec2::NEG_X, DVec2::Y, DVec2::NEG_Y].map(|e| normal(q1 + (e - n1) * eps));
         // A probe without a normal says nothing.
         let probes: Vec<DVec2> = probes.into_iter().filter(|n| n.length_squared() > 0.5).collect();
-        let split = probes
-            .iter()
-            .flat_map(|&a| probes.iter().map(move |&b| (a.dot(b), a, b)))
-            .min_by(|x, y| x.0.total_cmp(&y.0));
+        let split = crate::mesher::sharp::widest_split(&probes, DVec2::dot);
         if let Some((cos, a, b)) = split {
             if cos < cos_max {
                 found.push((q1, a, b));

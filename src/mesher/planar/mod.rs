@@ -207,12 +207,8 @@ impl Ctx<'_> {
     /// Approximate distance: d itself for distances, d / |grad d| otherwise.
     fn approx_dist(&self, p: DVec2) -> Result<f64, Error> {
         let d = self.d(p)?;
-        if self.domain.is_distance() {
-            Ok(d)
-        } else {
-            let g = self.domain.gradient(p).length();
-            Ok(if g > 0.0 && g.is_finite() { d / g } else { d })
-        }
+        let g = if self.domain.is_distance() { 1.0 } else { self.domain.gradient(p).length() };
+        Ok(truss::domain::approx_distance(d, g, self.domain.is_distance()))
     }
 }
 

@@ -66,6 +66,17 @@ pub(crate) fn checked_h<P: DomainPoint>(
     }
 }
 
+/// An approximate distance to d = 0 from the value `d` and the gradient length `grad`: d itself
+/// for a signed distance, d / |grad d| for a level set (d where the gradient vanishes).
+#[inline]
+pub(crate) fn approx_distance(d: f64, grad: f64, is_distance: bool) -> f64 {
+    if is_distance || !(grad > 0.0 && grad.is_finite()) {
+        d
+    } else {
+        d / grad
+    }
+}
+
 /// Checks h0, the box [lo, hi] and the fixed points: h0 positive and finite, the box finite
 /// and not empty, every fixed point finite and in the box.
 pub(crate) fn check_input<P: DomainPoint>(h0: f64, lo: P, hi: P, fixed: &[P]) -> Result<(), Error> {

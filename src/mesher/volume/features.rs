@@ -56,10 +56,7 @@ pub(super) fn crease_points(
                 .map(|e| ctx.domain.gradient(q1 + (e - n1) * eps).normalize_or_zero());
             // A probe without a normal says nothing.
             let probes: SmallVec<[DVec3; 6]> = probes.into_iter().filter(|n| n.length_squared() > 0.5).collect();
-            let split = probes
-                .iter()
-                .flat_map(|&a| probes.iter().map(move |&b| (a.dot(b), a, b)))
-                .min_by(|x, y| x.0.total_cmp(&y.0));
+            let split = crate::mesher::sharp::widest_split(&probes, DVec3::dot);
             if let Some((cos, a, b)) = split {
                 if cos < cos_max {
                     found.push((q1, a, b));
