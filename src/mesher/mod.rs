@@ -15,14 +15,15 @@ mod truss;
 mod volume;
 
 pub use crate::quality::tet_circumradius as circumradius;
+pub use crate::quality::{size_deviation, size_deviation_3d};
 pub use metric::{Metric2, Metric3, MetricFn2, MetricGrid2, MetricStats};
 pub use options::ProgressFn;
 pub use planar::options::{Options2, SizeFn2, Strategy};
-pub use planar::report::{area, boundary_deviation, size_deviation, QualityStats};
+pub use planar::report::{area, boundary_deviation, QualityStats};
 pub use report::{OpCounts, Report, StopReason, SurfaceStages};
 pub use truss::DensityBand;
 pub use volume::options::{Options3, SizeFn3};
-pub use volume::report::{boundary_deviation_3d, size_deviation_3d, QualityStats3};
+pub use volume::report::{boundary_deviation_3d, QualityStats3};
 
 use crate::geometry::{Implicit2, Implicit3};
 use crate::topology::{TetMesh, TriMesh};

@@ -75,20 +75,6 @@ impl std::fmt::Display for Report<QualityStats> {
     }
 }
 
-/// Size deviation: std/mean over triangles of circumradius / h(centroid) (seed section 2.7).
-pub fn size_deviation(m: &TriMesh<glam::DVec2>, h: &dyn Fn(glam::DVec2) -> f64) -> f64 {
-    let mut v = Vec::with_capacity(m.num_faces());
-    for f in m.face_ids() {
-        let [a, b, c] = m.face_points(f);
-        let r = crate::quality::circumradius_from_lengths(b.distance(c), c.distance(a), a.distance(b));
-        v.push(r / h((a + b + c) / 3.0));
-    }
-    let n = v.len().max(1) as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
-    var.sqrt() / mean
-}
-
 /// Largest |d| / |grad d| over boundary vertices: how far the boundary nodes are from d = 0.
 pub fn boundary_deviation(m: &TriMesh<glam::DVec2>, domain: &dyn crate::geometry::Implicit2) -> f64 {
     m.vertex_ids()

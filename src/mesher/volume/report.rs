@@ -3,7 +3,6 @@
 use crate::geometry::Implicit3;
 use crate::mesher::report::Report;
 use crate::topology::{TetId, TetMesh};
-use glam::DVec3;
 
 /// Quality statistics of a tetrahedral mesh.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -91,19 +90,6 @@ impl std::fmt::Display for Report<QualityStats3> {
         }
         self.warnings(f)
     }
-}
-
-/// Size deviation: std/mean over tetrahedra of circumradius / h(centroid) (seed section 2.7).
-pub fn size_deviation_3d(m: &TetMesh, h: &dyn Fn(DVec3) -> f64) -> f64 {
-    let mut v = Vec::with_capacity(m.num_tets());
-    for t in m.tet_ids() {
-        let p = m.tet_points(t);
-        v.push(crate::quality::tet_circumradius(p) / h((p[0] + p[1] + p[2] + p[3]) / 4.0));
-    }
-    let n = v.len().max(1) as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
-    var.sqrt() / mean
 }
 
 /// Largest |d| / |grad d| over boundary vertices: how far the boundary nodes are from d = 0.
