@@ -62,7 +62,7 @@ pub struct Tet {
     pub label: u32,
 }
 
-/// The tets around an edge a-b, in order: `tets[k]` = (a, b, ring[k], ring[k+1]) is positive
+/// The tets around an edge a-b, in order: `tets[k]` = `(a, b, ring[k], ring[k+1])` is positive
 /// (indices modulo the ring length when `closed`). An open shell (boundary edge) has one more
 /// ring vertex than tets.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -93,11 +93,11 @@ pub(super) fn ring_patch(
         }
         tet_dihedral_quality([pa, ci, cj, ck]).min(tet_dihedral_quality([ci, cj, ck, pb]))
     };
-    let (worst, choice) = crate::topology::tet_ops::best_ring_triangulation(n, tri_q);
+    let (worst, choice) = crate::topology::tet_edge_removal::best_ring_triangulation(n, tri_q);
     if worst < 0.0 {
         return Ok(None);
     }
-    let (new, mut diagonals) = crate::topology::tet_ops::ring_tets(s.a, s.b, &s.ring, &choice, label);
+    let (new, mut diagonals) = crate::topology::tet_edge_removal::ring_tets(s.a, s.b, &s.ring, &choice, label);
     if !s.closed {
         diagonals.push((0, n - 1));
     }

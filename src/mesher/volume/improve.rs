@@ -386,7 +386,7 @@ fn mean_ring_patch(m: &TetMesh, s: &crate::topology::EdgeShell, mean: f64) -> Op
     if gain <= RR_GAIN {
         return None;
     }
-    let (new, diagonals) = crate::topology::tet_ops::ring_tets(s.a, s.b, &s.ring, &choice, label);
+    let (new, diagonals) = crate::topology::tet_edge_removal::ring_tets(s.a, s.b, &s.ring, &choice, label);
     for &(i, j) in &diagonals {
         if (j + 1) % n != i && (i + 1) % n != j && m.find_edge(s.ring[i], s.ring[j]).is_some() {
             return None;
