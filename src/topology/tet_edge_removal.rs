@@ -1,18 +1,32 @@
 //! Edge removal (Shewchuk 2002): the tets around an edge are replaced by two tets on each
 //! triangle of a triangulation of the edge's ring polygon, the triangulation chosen by dynamic
-//! programming over the polygon (Klincsek 1980).
+//! programming over the polygon (Klincsek 1980). The 3-2 and 4-4 flips are its cases n = 3, 4.
 
 use super::tet_ops::{NewTets, TetPatch};
 use super::tetmesh::{EdgeShell, TVertexId, TetId, TetMesh, EDGE_VERTICES};
 use super::Refusal;
 use crate::predicates::{orient3d, Sign};
+use crate::quality::tet_radius_ratio;
 use glam::DVec3;
 use smallvec::SmallVec;
 
+/// Largest ring an edge removal triangulates (the tables of the dynamic programming).
+const MAX_RING: usize = 12;
+
+/// What a ring retriangulation maximises over the tets it makes (see
+/// [`TetMesh::ring_retriangulation`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Objective {
+    /// The worst quality of a new tet (Shewchuk 2002's edge removal).
+    Worst,
+    /// The summed quality of the new tets (what a mesh's mean quality gains).
+    Sum,
+}
+
 impl TetMesh {
-    /// Checks removing the interior edge of the shell: the n tets around it become 2n - 4 tets
-    /// over a triangulation of the ring polygon, chosen by dynamic programming to maximise the
-    /// worst radius ratio among the triangulations whose tets are all positive (exact).
+    /// The optimal retriangulation of the ring of shell `s`: the tets around the edge a-b are
+    /// replaced by the two tets (a, ci, cj, ck) and (ci, cj, ck, b) on each triangle of a
+    /// triangulation of the ring polygon c0 .. c(n-1), n <= 12.
     ///
     /// ```text
     ///      ring c0 .. c(n-1) around a-b           each ring triangle (ci, cj, ck) gives
@@ -22,16 +36,45 @@ impl TetMesh {
     ///       \  /    \  /
     ///        c5-----c4
     /// ```
+    ///
+    /// Among the triangulations whose tets are all positive (exact orient3d) and allowed by
+    /// `quality` (a negative quality forbids a tet), the one with the largest `objective` of
+    /// `quality` over its tets is taken, by dynamic programming over the polygon (Klincsek
+    /// 1980). `accept` sees that optimal value before the patch is built: `false` refuses with
+    /// [`Refusal::NotBetter`]. An open shell (a boundary edge) is triangulated as the polygon
+    /// closed by c0-c(n-1), which becomes a boundary edge in place of a-b.
+    ///
+    /// Refused when the ring is too small or too large, the tets of the shell hold different
+    /// labels (an internal boundary), no allowed triangulation exists, or a new edge (or for
+    /// n = 3 the new face) exists already. Returns the checked patch, whose
+    /// [`TetPatch::min_quality`] is the worst radius ratio of its tets, and the optimal value.
+    pub fn ring_retriangulation(
+        &self,
+        s: &EdgeShell,
+        quality: impl Fn([DVec3; 4]) -> f64,
+        objective: Objective,
+        accept: impl Fn(f64) -> bool,
+    ) -> Result<(TetPatch, f64), Refusal> {
+        let (mut plan, value) = self.ring_patch(s, quality, objective, accept)?;
+        let p = |v: TVertexId| self.pos(v);
+        plan.min_quality = plan.new.iter().map(|(v, _)| tet_radius_ratio(v.map(p))).fold(f64::INFINITY, f64::min);
+        Ok((plan, value))
+    }
+
+    /// [`TetMesh::ring_retriangulation`] with the patch's `min_quality` left unset.
     #[allow(clippy::needless_range_loop)]
-    pub fn check_remove_edge_shell(&self, s: &EdgeShell) -> Result<TetPatch, Refusal> {
-        if !s.closed {
-            return Err(Refusal::BoundaryEdge);
-        }
+    fn ring_patch(
+        &self,
+        s: &EdgeShell,
+        quality: impl Fn([DVec3; 4]) -> f64,
+        objective: Objective,
+        accept: impl Fn(f64) -> bool,
+    ) -> Result<(TetPatch, f64), Refusal> {
         let n = s.ring.len();
         if n < 3 {
             return Err(Refusal::TooSmall);
         }
-        if n > 12 {
+        if n > MAX_RING {
             return Err(Refusal::NotConvex);
         }
         let label = self.tets[s.tets[0]].label;
@@ -40,31 +83,60 @@ impl TetMesh {
             return Err(Refusal::Constrained);
         }
         let (pa, pb) = (self.pos(s.a), self.pos(s.b));
-        let pc: SmallVec<[DVec3; 12]> = s.ring.iter().map(|&c| self.pos(c)).collect();
-        // Quality of the pair of tets on ring triangle (i, j, k); negative when invalid.
-        let tri_q = |i: usize, j: usize, k: usize| -> f64 {
+        let pc: SmallVec<[DVec3; MAX_RING]> = s.ring.iter().map(|&c| self.pos(c)).collect();
+        // The qualities of the two tets on ring triangle (i, j, k); none when one is not
+        // positive or is forbidden.
+        let pair = |i: usize, j: usize, k: usize| -> Option<(f64, f64)> {
             let (ci, cj, ck) = (pc[i], pc[j], pc[k]);
             if orient3d(pa, ci, cj, ck) != Sign::Positive || orient3d(ci, cj, ck, pb) != Sign::Positive {
-                return -1.0;
+                return None;
             }
-            crate::quality::tet_radius_ratio([pa, ci, cj, ck]).min(crate::quality::tet_radius_ratio([ci, cj, ck, pb]))
+            Some((quality([pa, ci, cj, ck]), quality([ci, cj, ck, pb])))
         };
-        let (worst, choice) = best_ring_triangulation(n, tri_q);
-        // No valid triangulation of the ring.
-        if worst < 0.0 {
-            return Err(Refusal::NotConvex);
+        let (value, choice) = match objective {
+            Objective::Worst => {
+                let (v, c) = best_ring_triangulation(n, |i, j, k| pair(i, j, k).map_or(-1.0, |(x, y)| x.min(y)));
+                (if v < 0.0 { None } else { Some(v) }, c)
+            }
+            Objective::Sum => {
+                let (v, c) = best_ring_sum(n, |i, j, k| match pair(i, j, k) {
+                    Some((x, y)) if x < 0.0 || y < 0.0 => None,
+                    Some((x, y)) => Some(x + y),
+                    None => None,
+                });
+                (v.is_finite().then_some(v), c)
+            }
+        };
+        // No allowed triangulation of the ring.
+        let value = value.ok_or(Refusal::NotConvex)?;
+        if !accept(value) {
+            return Err(Refusal::NotBetter);
         }
         let (new, diagonals) = ring_tets(s.a, s.b, &s.ring, &choice, label);
-        // The new diagonals must not exist already; for n = 3 the new face must not.
+        // The new edges must not exist already: the diagonals, and for an open ring the edge
+        // that closes it; for n = 3 around an interior edge, the new face must not.
         for &(i, j) in &diagonals {
-            if (j + 1) % n != i && (i + 1) % n != j && self.find_edge(s.ring[i], s.ring[j]).is_some() {
+            if self.find_edge(s.ring[i], s.ring[j]).is_some() {
                 return Err(Refusal::DuplicateEdge);
             }
         }
-        if n == 3 && self.has_face(s.ring[0], s.ring[1], s.ring[2]) {
+        if !s.closed && self.find_edge(s.ring[0], s.ring[n - 1]).is_some() {
             return Err(Refusal::DuplicateEdge);
         }
-        let mut plan = self.patch(s.tets.iter().copied().collect(), new);
+        if n == 3 && s.closed && self.has_face(s.ring[0], s.ring[1], s.ring[2]) {
+            return Err(Refusal::DuplicateEdge);
+        }
+        Ok((self.patch(s.tets.iter().copied().collect(), new), value))
+    }
+
+    /// Checks removing the interior edge of the shell: the n tets around it become 2n - 4 tets
+    /// over the triangulation of the ring polygon that maximises the worst radius ratio (see
+    /// [`TetMesh::ring_retriangulation`]).
+    pub fn check_remove_edge_shell(&self, s: &EdgeShell) -> Result<TetPatch, Refusal> {
+        if !s.closed {
+            return Err(Refusal::BoundaryEdge);
+        }
+        let (mut plan, worst) = self.ring_patch(s, tet_radius_ratio, Objective::Worst, |_| true)?;
         plan.min_quality = worst;
         Ok(plan)
     }
@@ -85,17 +157,16 @@ impl TetMesh {
     }
 }
 
-/// The triangulation of a ring of n <= 12 vertices (edge removal, Shewchuk 2002; the
-/// polygon triangulation by dynamic programming of Klincsek 1980) that maximises the worst
-/// `tri_q(i, k, j)` over its triangles (negative: not allowed). Returns that worst value
-/// (negative when no triangulation is allowed) and `choice[i][j]`, the apex k over the
-/// sub-polygon i..j.
-pub(crate) fn best_ring_triangulation(
-    n: usize,
-    tri_q: impl Fn(usize, usize, usize) -> f64,
-) -> (f64, [[usize; 12]; 12]) {
-    let mut best = [[f64::INFINITY; 12]; 12];
-    let mut choice = [[0usize; 12]; 12];
+/// Apex choices of a ring triangulation: `choice[i][j]` is the apex k over the sub-polygon
+/// i..j.
+type Choice = [[usize; MAX_RING]; MAX_RING];
+
+/// The triangulation of a ring of n <= 12 vertices that maximises the worst `tri_q(i, k, j)`
+/// over its triangles (negative: not allowed). Returns that worst value (negative when no
+/// triangulation is allowed) and the apex choices.
+fn best_ring_triangulation(n: usize, tri_q: impl Fn(usize, usize, usize) -> f64) -> (f64, Choice) {
+    let mut best = [[f64::INFINITY; MAX_RING]; MAX_RING];
+    let mut choice = [[0usize; MAX_RING]; MAX_RING];
     for len in 2..n {
         for i in 0..n - len {
             let j = i + len;
@@ -119,20 +190,44 @@ pub(crate) fn best_ring_triangulation(
     (best[0][n - 1], choice)
 }
 
-/// The tets of a ring triangulation chosen by [`best_ring_triangulation`]: two per ring
-/// triangle (a on one side, b on the other), and the diagonals of the ring it uses.
-pub(crate) fn ring_tets(
+/// The triangulation of a ring of n <= 12 vertices that maximises the sum of
+/// `tri_q(i, k, j)` over its triangles (none: not allowed). Returns that sum (negative
+/// infinity when no triangulation is allowed) and the apex choices.
+fn best_ring_sum(n: usize, tri_q: impl Fn(usize, usize, usize) -> Option<f64>) -> (f64, Choice) {
+    let mut best = [[0.0f64; MAX_RING]; MAX_RING];
+    let mut choice = [[0usize; MAX_RING]; MAX_RING];
+    for len in 2..n {
+        for i in 0..n - len {
+            let j = i + len;
+            let mut b = f64::NEG_INFINITY;
+            for k in i + 1..j {
+                let Some(q) = tri_q(i, k, j) else { continue };
+                let v = q + best[i][k] + best[k][j];
+                if v > b {
+                    b = v;
+                    choice[i][j] = k;
+                }
+            }
+            best[i][j] = b;
+        }
+    }
+    (best[0][n - 1], choice)
+}
+
+/// The tets of a ring triangulation by its apex choices: two per ring triangle (a on one
+/// side, b on the other), and the diagonals of the ring it uses.
+fn ring_tets(
     a: TVertexId,
     b: TVertexId,
     ring: &[TVertexId],
-    choice: &[[usize; 12]; 12],
+    choice: &Choice,
     label: u32,
-) -> (NewTets, SmallVec<[(usize, usize); 12]>) {
+) -> (NewTets, SmallVec<[(usize, usize); MAX_RING]>) {
     let n = ring.len();
     let mut new: NewTets = SmallVec::new();
-    let mut stack: SmallVec<[(usize, usize); 12]> = SmallVec::new();
+    let mut stack: SmallVec<[(usize, usize); MAX_RING]> = SmallVec::new();
     stack.push((0, n - 1));
-    let mut diagonals: SmallVec<[(usize, usize); 12]> = SmallVec::new();
+    let mut diagonals: SmallVec<[(usize, usize); MAX_RING]> = SmallVec::new();
     while let Some((i, j)) = stack.pop() {
         if j < i + 2 {
             continue;

@@ -24,13 +24,17 @@ pub(crate) fn positive(s: Sign) -> Result<(), Refusal> {
     }
 }
 
-pub(crate) type NewTets = SmallVec<[([TVertexId; 4], u32); 16]>;
+pub(super) type NewTets = SmallVec<[([TVertexId; 4], u32); 16]>;
 /// Outside faces of a patch: key, what lies across, matched yet.
 type OuterFaces = SmallVec<[([TVertexId; 3], Option<(TetId, u8)>, bool); 24]>;
 
 /// A checked replacement of `old` tets by `new` ones (with labels). `subst` renames a vertex in
 /// the faces outside (a collapse); `remove` is a vertex that disappears; `add` a vertex that
 /// appears and is written into the new tets wherever they hold `TVertexId::null()`.
+///
+/// Only the engine makes patches (the `check_*` methods and [`TetMesh::ring_retriangulation`]):
+/// every patch applied was checked, new tets positive by exact orientation, against the mesh
+/// revision it remembers.
 #[derive(Clone, Debug)]
 pub struct TetPatch {
     pub(super) old: SmallVec<[TetId; 16]>,
@@ -41,15 +45,11 @@ pub struct TetPatch {
     pub(super) moved: Option<(TVertexId, DVec3)>,
     /// Worst radius ratio among the new tets.
     pub min_quality: f64,
-    /// The mesh revision the plan was checked against (none for crate-private fast paths).
-    pub(super) revision: Option<u64>,
+    /// The mesh revision the plan was checked against.
+    pub(super) revision: u64,
 }
 
 impl TetPatch {
-    /// A patch whose new tets the caller has already checked (crate-private fast paths).
-    pub(crate) fn raw(old: SmallVec<[TetId; 16]>, new: NewTets, add: Option<(DVec3, VertexTag)>) -> Self {
-        TetPatch { old, new, subst: None, remove: None, add, moved: None, min_quality: 0.0, revision: None }
-    }
     /// Number of tets the patch removes.
     pub fn removed(&self) -> usize {
         self.old.len()
@@ -80,9 +80,7 @@ impl TetMesh {
 
     /// Applies a checked patch and returns the new tets (and the new vertex, if any).
     pub fn apply_patch(&mut self, plan: TetPatch) -> (SmallVec<[TetId; 16]>, Option<TVertexId>) {
-        if let Some(r) = plan.revision {
-            debug_assert_eq!(r, self.revision, "apply_patch: the plan is stale");
-        }
+        debug_assert_eq!(plan.revision, self.revision, "apply_patch: the plan is stale");
         self.revision = self.revision.wrapping_add(1);
         let sub = |v: TVertexId| match plan.subst {
             Some((a, b)) if v == a => b,
@@ -229,7 +227,7 @@ impl TetMesh {
             add: None,
             moved: None,
             min_quality: 0.0,
-            revision: Some(self.revision),
+            revision: self.revision,
         }
     }
 
