@@ -247,3 +247,108 @@ fn ring_tets(
     }
     (new, diagonals)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::quality::tet_dihedral_quality;
+    use crate::testing::edge_shell;
+    use crate::topology::Level;
+
+    /// The n - 1 tets around the boundary edge from (0, 0, -1) to (0, 0, 1), the ring on a
+    /// half circle: the boundary is flat at the edge (the plane y = 0).
+    fn open_shell(n: usize) -> TetMesh {
+        let mut p = vec![DVec3::new(0.0, 0.0, -1.0), DVec3::new(0.0, 0.0, 1.0)];
+        for k in 0..n {
+            let a = std::f64::consts::PI * k as f64 / (n - 1) as f64;
+            p.push(DVec3::new(a.cos(), a.sin(), 0.0));
+        }
+        let t: Vec<[usize; 4]> = (0..n - 1).map(|k| [0, 1, 2 + k, 3 + k]).collect();
+        TetMesh::from_arrays(&p, &t).expect("valid").0
+    }
+
+    fn axis(m: &TetMesh) -> EdgeShell {
+        let v: Vec<TVertexId> = m.vertex_ids().collect();
+        m.edge_shell_of(v[0], v[1]).expect("the axis")
+    }
+
+    #[test]
+    fn worst_radius_ratio_is_the_edge_removal() {
+        for n in 3..=10 {
+            let m = edge_shell(n);
+            let s = axis(&m);
+            let plan = m.check_remove_edge_shell(&s).expect("removable");
+            let (ring, worst) = m.ring_retriangulation(&s, tet_radius_ratio, Objective::Worst, |_| true).unwrap();
+            assert_eq!(ring.new, plan.new, "n = {n}");
+            assert_eq!((ring.min_quality, worst), (plan.min_quality, plan.min_quality));
+        }
+    }
+
+    #[test]
+    fn sum_objective_adds_the_new_tets() {
+        for n in 3..=10 {
+            let mut m = edge_shell(n);
+            let (vol, s) = (m.volume(), axis(&m));
+            let (plan, sum) = m.ring_retriangulation(&s, tet_dihedral_quality, Objective::Sum, |_| true).unwrap();
+            let p = |v: TVertexId| m.pos(v);
+            let total: f64 = plan.new.iter().map(|(v, _)| tet_dihedral_quality(v.map(p))).sum();
+            assert!((total - sum).abs() < 1e-12, "n = {n}: {total} vs {sum}");
+            // No triangulation of the ring sums more: the fans are among them.
+            let pc: Vec<DVec3> = s.ring.iter().map(|&c| m.pos(c)).collect();
+            let (pa, pb) = (m.pos(s.a), m.pos(s.b));
+            for apex in 0..n {
+                let fan: f64 = (1..n - 1)
+                    .map(|k| {
+                        let (ci, cj, ck) = (pc[apex], pc[(apex + k) % n], pc[(apex + k + 1) % n]);
+                        tet_dihedral_quality([pa, ci, cj, ck]) + tet_dihedral_quality([ci, cj, ck, pb])
+                    })
+                    .sum();
+                assert!(fan <= sum + 1e-12, "n = {n}, fan {apex}: {fan} > {sum}");
+            }
+            m.apply_patch(plan);
+            m.validate(Level::Geometry).expect("valid");
+            assert_eq!(m.num_tets(), 2 * n - 4);
+            assert!((m.volume() - vol).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn refusals_leave_the_mesh_alone() {
+        let m = edge_shell(6);
+        let s = axis(&m);
+        let r = m.ring_retriangulation(&s, tet_radius_ratio, Objective::Worst, |_| false);
+        assert_eq!(r.err(), Some(Refusal::NotBetter));
+        // A quality that forbids every tet leaves no triangulation.
+        for objective in [Objective::Worst, Objective::Sum] {
+            let r = m.ring_retriangulation(&s, |_| -1.0, objective, |_| true);
+            assert_eq!(r.err(), Some(Refusal::NotConvex));
+        }
+        // An internal boundary through the edge.
+        let mut c = m.clone();
+        c.set_label(s.tets[0], 7);
+        let r = c.ring_retriangulation(&s, tet_radius_ratio, Objective::Worst, |_| true);
+        assert_eq!(r.err(), Some(Refusal::Constrained));
+    }
+
+    #[test]
+    fn open_rings_close_on_a_new_boundary_edge() {
+        for n in 3..=9 {
+            let mut m = open_shell(n);
+            let (vol, s) = (m.volume(), axis(&m));
+            assert!(!s.closed);
+            assert_eq!(m.check_remove_edge_shell(&s).err(), Some(Refusal::BoundaryEdge));
+            for objective in [Objective::Worst, Objective::Sum] {
+                let (plan, _) = m.ring_retriangulation(&s, tet_radius_ratio, objective, |_| true).unwrap();
+                assert!(plan.min_quality > 0.0);
+                assert_eq!(plan.created(), 2 * (n - 2));
+            }
+            let (plan, _) = m.ring_retriangulation(&s, tet_radius_ratio, Objective::Worst, |_| true).unwrap();
+            m.apply_patch(plan);
+            m.validate(Level::Geometry).expect("valid");
+            assert!(m.find_edge(s.a, s.b).is_none());
+            assert!(m.find_edge(s.ring[0], s.ring[n - 1]).is_some());
+            assert!((m.volume() - vol).abs() < 1e-12);
+            assert!(!m.edge_shell_of(s.ring[0], s.ring[n - 1]).expect("the new edge").closed);
+        }
+    }
+}
