@@ -230,14 +230,10 @@ pub(super) fn try_collapse(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, h: HalfEdgeId)
     Ok(false)
 }
 
+/// Lawson flips from the star of `v` ([`TriMesh::star_edges`]) by [`Ctx::legalize`]'s test:
+/// exact in-circle, or the metric's.
 pub(super) fn legalize_vertex(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) {
-    let mut stack = Vec::new();
-    for h in m.outgoing(v) {
-        stack.push(h);
-        if m.face_of(h).is_some() {
-            stack.push(m.next(h));
-        }
-    }
+    let stack = m.star_edges(&[v]);
     ctx.report.flips += ctx.legalize(m, stack);
 }
 
