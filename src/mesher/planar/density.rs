@@ -101,7 +101,7 @@ pub(super) fn density_candidates(
 /// roots (the repair scan tests every triangle and finds almost none): q = 16 A^2 / (P la lb lc)
 /// with perimeter P <= 3 L and each side <= L (L the longest), so q >= 16 A^2 / (3 L^4).
 pub(super) fn surely_not_below_repair(a: DVec2, b: DVec2, c: DVec2) -> bool {
-    let twice_area = (b - a).perp_dot(c - a);
+    let twice_area = 2.0 * crate::quality::triangle_area([a, b, c]);
     let l2 = a.distance_squared(b).max(b.distance_squared(c)).max(c.distance_squared(a));
     // 16 A^2 = 4 (2A)^2; a margin of 1% covers the rounding of both sides.
     4.0 * twice_area * twice_area >= 1.01 * 3.0 * Q_REPAIR * l2 * l2
