@@ -62,7 +62,6 @@ impl TetMesh {
     }
 
     /// [`TetMesh::ring_retriangulation`] with the patch's `min_quality` left unset.
-    #[allow(clippy::needless_range_loop)]
     fn ring_patch(
         &self,
         s: &EdgeShell,
@@ -93,22 +92,27 @@ impl TetMesh {
             }
             Some((quality([pa, ci, cj, ck]), quality([ci, cj, ck, pb])))
         };
-        let (value, choice) = match objective {
-            Objective::Worst => {
-                let (v, c) = best_ring_triangulation(n, |i, j, k| pair(i, j, k).map_or(-1.0, |(x, y)| x.min(y)));
-                (if v < 0.0 { None } else { Some(v) }, c)
+        let (value, choice) = best_ring_triangulation(n, objective, |i, j, k| {
+            let (x, y) = pair(i, j, k)?;
+            let q = match objective {
+                Objective::Worst => x.min(y),
+                Objective::Sum if x < 0.0 || y < 0.0 => return None,
+                Objective::Sum => x + y,
+            };
+            if q < 0.0 {
+                None
+            } else {
+                Some(q)
             }
-            Objective::Sum => {
-                let (v, c) = best_ring_sum(n, |i, j, k| match pair(i, j, k) {
-                    Some((x, y)) if x < 0.0 || y < 0.0 => None,
-                    Some((x, y)) => Some(x + y),
-                    None => None,
-                });
-                (v.is_finite().then_some(v), c)
-            }
-        };
+        });
         // No allowed triangulation of the ring.
-        let value = value.ok_or(Refusal::NotConvex)?;
+        let allowed = match objective {
+            Objective::Worst => value >= 0.0,
+            Objective::Sum => value.is_finite(),
+        };
+        if !allowed {
+            return Err(Refusal::NotConvex);
+        }
         if !accept(value) {
             return Err(Refusal::NotBetter);
         }
@@ -161,48 +165,35 @@ impl TetMesh {
 /// i..j.
 type Choice = [[usize; MAX_RING]; MAX_RING];
 
-/// The triangulation of a ring of n <= 12 vertices that maximises the worst `tri_q(i, k, j)`
-/// over its triangles (negative: not allowed). Returns that worst value (negative when no
-/// triangulation is allowed) and the apex choices.
-fn best_ring_triangulation(n: usize, tri_q: impl Fn(usize, usize, usize) -> f64) -> (f64, Choice) {
-    let mut best = [[f64::INFINITY; MAX_RING]; MAX_RING];
+/// The triangulation of a ring of n <= 12 vertices that maximises `objective` of
+/// `tri_q(i, k, j)` over its triangles (none: the triangle is not allowed), by dynamic
+/// programming over the sub-polygons i..j (Klincsek 1980). Returns the optimal value (below
+/// zero for the worst, not finite for the sum, when no triangulation is allowed) and the apex
+/// choices.
+#[allow(clippy::needless_range_loop)]
+fn best_ring_triangulation(
+    n: usize,
+    objective: Objective,
+    tri_q: impl Fn(usize, usize, usize) -> Option<f64>,
+) -> (f64, Choice) {
+    // The value of an empty sub-polygon (a ring edge), and the start of the search.
+    let (empty, nothing) = match objective {
+        Objective::Worst => (f64::INFINITY, -1.0),
+        Objective::Sum => (0.0, f64::NEG_INFINITY),
+    };
+    let join = |x: f64, y: f64| match objective {
+        Objective::Worst => x.min(y),
+        Objective::Sum => x + y,
+    };
+    let mut best = [[empty; MAX_RING]; MAX_RING];
     let mut choice = [[0usize; MAX_RING]; MAX_RING];
     for len in 2..n {
         for i in 0..n - len {
             let j = i + len;
-            let mut b = -1.0;
-            for k in i + 1..j {
-                let q = tri_q(i, k, j);
-                if q < 0.0 {
-                    continue;
-                }
-                let left = if k > i + 1 { best[i][k] } else { f64::INFINITY };
-                let right = if j > k + 1 { best[k][j] } else { f64::INFINITY };
-                let v = q.min(left).min(right);
-                if v > b {
-                    b = v;
-                    choice[i][j] = k;
-                }
-            }
-            best[i][j] = b;
-        }
-    }
-    (best[0][n - 1], choice)
-}
-
-/// The triangulation of a ring of n <= 12 vertices that maximises the sum of
-/// `tri_q(i, k, j)` over its triangles (none: not allowed). Returns that sum (negative
-/// infinity when no triangulation is allowed) and the apex choices.
-fn best_ring_sum(n: usize, tri_q: impl Fn(usize, usize, usize) -> Option<f64>) -> (f64, Choice) {
-    let mut best = [[0.0f64; MAX_RING]; MAX_RING];
-    let mut choice = [[0usize; MAX_RING]; MAX_RING];
-    for len in 2..n {
-        for i in 0..n - len {
-            let j = i + len;
-            let mut b = f64::NEG_INFINITY;
+            let mut b = nothing;
             for k in i + 1..j {
                 let Some(q) = tri_q(i, k, j) else { continue };
-                let v = q + best[i][k] + best[k][j];
+                let v = join(join(q, best[i][k]), best[k][j]);
                 if v > b {
                     b = v;
                     choice[i][j] = k;
