@@ -91,6 +91,107 @@ fn orient3d_exact(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
     Sign::of(-robust::orient3d(c3(a), c3(b), c3(c), c3(d)))
 }
 
+/// Positive when the normal (b - a) x (c - a) of the triangle (a, b, c) points along `dir`,
+/// i.e. the sign of det[b - a, c - a, dir]: [`orient3d`] with its fourth point at infinity in
+/// the direction `dir`. Zero when the triangle is degenerate or its plane holds `dir`, and for
+/// non-finite input. Exact (barring overflow and underflow), like the others.
+#[inline]
+pub fn orient3d_dir(a: DVec3, b: DVec3, c: DVec3, dir: DVec3) -> Sign {
+    // The floating-point stage: the normal and its dot product with dir, with orient3d's error
+    // bound (here only two columns are rounded differences, so it holds with room to spare).
+    let (u, v) = (b - a, c - a);
+    let det = u.cross(v).dot(dir);
+    let permanent = (u.y * v.z).abs() * dir.x.abs()
+        + (v.y * u.z).abs() * dir.x.abs()
+        + ((u.z * v.x).abs() + (v.z * u.x).abs()) * dir.y.abs()
+        + ((u.x * v.y).abs() + (v.x * u.y).abs()) * dir.z.abs();
+    if det.is_nan() {
+        return Sign::Zero;
+    }
+    if det.abs() > O3D_BOUND * permanent {
+        return if det > 0.0 { Sign::Positive } else { Sign::Negative };
+    }
+    orient3d_dir_exact(a, b, c, dir)
+}
+
+/// [`orient3d_dir`] exactly: det[b - a, c - a, d] = det[b, c, d] + det[a, b, d] + det[c, a, d]
+/// (multilinearity), each a sum of six products of three coordinates, summed as an expansion.
+#[cold]
+#[inline(never)]
+fn orient3d_dir_exact(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
+    if ![a, b, c, d].iter().all(|p| p.is_finite()) {
+        return Sign::Zero;
+    }
+    let mut sum = Expansion::default();
+    for (x, y) in [(b, c), (a, b), (c, a)] {
+        // det[x, y, d] = x . (y x d)
+        for (s, p, q, r) in [
+            (1.0, x.x, y.y, d.z),
+            (-1.0, x.x, y.z, d.y),
+            (1.0, x.y, y.z, d.x),
+            (-1.0, x.y, y.x, d.z),
+            (1.0, x.z, y.x, d.y),
+            (-1.0, x.z, y.y, d.x),
+        ] {
+            // p q r = (h + l) r exactly, each of h r and l r as two doubles.
+            let (h, l) = two_product(s * p, q);
+            let (h1, l1) = two_product(h, r);
+            let (h2, l2) = two_product(l, r);
+            for t in [l2, h2, l1, h1] {
+                sum.add(t);
+            }
+        }
+    }
+    sum.sign()
+}
+
+/// x + y = a + b exactly, x = fl(a + b) (Knuth's two-sum).
+#[inline]
+fn two_sum(a: f64, b: f64) -> (f64, f64) {
+    let x = a + b;
+    let bv = x - a;
+    let av = x - bv;
+    (x, (a - av) + (b - bv))
+}
+
+/// x + y = a b exactly, x = fl(a b): the fused multiply-add rounds only once, so it returns
+/// the product's rounding error (exact unless it underflows).
+#[inline]
+fn two_product(a: f64, b: f64) -> (f64, f64) {
+    let x = a * b;
+    (x, a.mul_add(b, -x))
+}
+
+/// A sum of doubles held exactly as non-overlapping components of increasing magnitude, none
+/// zero (Shewchuk 1997, section 2: grow-expansion with zero elimination).
+#[derive(Default)]
+struct Expansion {
+    parts: Vec<f64>,
+}
+
+impl Expansion {
+    fn add(&mut self, b: f64) {
+        let mut q = b;
+        let mut k = 0;
+        for i in 0..self.parts.len() {
+            let (s, h) = two_sum(q, self.parts[i]);
+            q = s;
+            if h != 0.0 {
+                self.parts[k] = h;
+                k += 1;
+            }
+        }
+        self.parts.truncate(k);
+        if q != 0.0 {
+            self.parts.push(q);
+        }
+    }
+    /// The sign of the sum: that of its largest component.
+    fn sign(&self) -> Sign {
+        self.parts.last().map_or(Sign::Zero, |&x| Sign::of(x))
+    }
+}
+
 /// Positive when e lies strictly inside the sphere through the positively oriented (a, b, c, d)
 /// (orientation as in [`orient3d`]).
 #[inline(always)]
@@ -161,6 +262,49 @@ mod tests {
         assert_eq!(incircle(a, b, c, DVec2::ZERO), Sign::Positive);
         assert_eq!(incircle(a, b, c, DVec2::new(0.0, -1.0)), Sign::Zero);
         assert_eq!(incircle(a, b, c, DVec2::new(0.0, -2.0)), Sign::Negative);
+    }
+
+    #[test]
+    fn orient3d_dir_is_exact() {
+        let (a, b, c) = (DVec3::ZERO, DVec3::X, DVec3::Y);
+        assert_eq!(orient3d_dir(a, b, c, DVec3::Z), Sign::Positive);
+        assert_eq!(orient3d_dir(a, c, b, DVec3::Z), Sign::Negative);
+        assert_eq!(orient3d_dir(a, b, c, DVec3::new(1.0, 2.0, 0.0)), Sign::Zero);
+        assert_eq!(orient3d_dir(a, b, c, DVec3::new(0.0, 0.0, f64::NAN)), Sign::Zero);
+        // Integer coordinates, exact in doubles, with dir = 2^20 u + w for u = b - a: the
+        // determinant is det[u, v, w], tiny next to the terms, and zero for w = 0.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |bits: u32| {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 33) % (1u64 << bits)) as i64 - (1i64 << (bits - 1))
+        };
+        let mut float_wrong = 0;
+        for _ in 0..2000 {
+            let a = [next(30), next(30), next(30)];
+            let u = [next(30), next(30), next(30)];
+            let v = [next(30), next(30), next(30)];
+            let w = [next(2), next(2), next(2)];
+            let d = [0, 1, 2].map(|k| (u[k] << 20) + w[k]);
+            let det = |x: [i64; 3], y: [i64; 3], z: [i64; 3]| {
+                let (x, y, z) = (x.map(i128::from), y.map(i128::from), z.map(i128::from));
+                x[0] * (y[1] * z[2] - y[2] * z[1]) - x[1] * (y[0] * z[2] - y[2] * z[0])
+                    + x[2] * (y[0] * z[1] - y[1] * z[0])
+            };
+            let want = det(u, v, w).signum();
+            let p = |x: [i64; 3]| DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64);
+            let pa = p(a);
+            let (pb, pc) = (pa + p(u), pa + p(v));
+            let got = match orient3d_dir(pa, pb, pc, p(d)) {
+                Sign::Positive => 1,
+                Sign::Zero => 0,
+                Sign::Negative => -1,
+            };
+            assert_eq!(got, want, "a {a:?} u {u:?} v {v:?} w {w:?}");
+            let naive = (pb - pa).cross(pc - pa).dot(p(d));
+            float_wrong += usize::from((naive > 0.0) as i128 - (naive < 0.0) as i128 != want);
+        }
+        // The cases are hard enough that floating point alone gets some wrong.
+        assert!(float_wrong > 0);
     }
 
     #[test]

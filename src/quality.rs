@@ -172,6 +172,41 @@ pub(crate) fn dihedral_quality_cos_bounds(thr: f64) -> (f64, f64) {
     ((thr * REGULAR_DIHEDRAL).to_radians().cos(), (180.0 - thr * (180.0 - REGULAR_DIHEDRAL)).to_radians().cos())
 }
 
+/// Standard deviation over mean of `samples` (0 for none): the spread measure of the size
+/// deviation.
+fn spread(samples: &[f64]) -> f64 {
+    let n = samples.len().max(1) as f64;
+    let mean = samples.iter().sum::<f64>() / n;
+    let var = samples.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
+    var.sqrt() / mean
+}
+
+/// Size deviation of a triangle mesh: std / mean over triangles of circumradius / h(centroid)
+/// (seed section 2.7).
+pub fn size_deviation(m: &crate::topology::TriMesh<DVec2>, h: &dyn Fn(DVec2) -> f64) -> f64 {
+    let v: Vec<f64> = m
+        .face_ids()
+        .map(|f| {
+            let [a, b, c] = m.face_points(f);
+            circumradius_from_lengths(b.distance(c), c.distance(a), a.distance(b)) / h((a + b + c) / 3.0)
+        })
+        .collect();
+    spread(&v)
+}
+
+/// Size deviation of a tetrahedral mesh: std / mean over tetrahedra of circumradius /
+/// h(centroid) (seed section 2.7).
+pub fn size_deviation_3d(m: &crate::topology::TetMesh, h: &dyn Fn(DVec3) -> f64) -> f64 {
+    let v: Vec<f64> = m
+        .tet_ids()
+        .map(|t| {
+            let p = m.tet_points(t);
+            tet_circumradius(p) / h((p[0] + p[1] + p[2] + p[3]) / 4.0)
+        })
+        .collect();
+    spread(&v)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -232,39 +267,4 @@ mod tests {
         }
         assert!(seen[0] > 0 && seen[1] > 0, "both sides sampled: {seen:?}");
     }
-}
-
-/// Standard deviation over mean of `samples` (0 for none): the spread measure of the size
-/// deviation.
-fn spread(samples: &[f64]) -> f64 {
-    let n = samples.len().max(1) as f64;
-    let mean = samples.iter().sum::<f64>() / n;
-    let var = samples.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / n;
-    var.sqrt() / mean
-}
-
-/// Size deviation of a triangle mesh: std / mean over triangles of circumradius / h(centroid)
-/// (seed section 2.7).
-pub fn size_deviation(m: &crate::topology::TriMesh<DVec2>, h: &dyn Fn(DVec2) -> f64) -> f64 {
-    let v: Vec<f64> = m
-        .face_ids()
-        .map(|f| {
-            let [a, b, c] = m.face_points(f);
-            circumradius_from_lengths(b.distance(c), c.distance(a), a.distance(b)) / h((a + b + c) / 3.0)
-        })
-        .collect();
-    spread(&v)
-}
-
-/// Size deviation of a tetrahedral mesh: std / mean over tetrahedra of circumradius /
-/// h(centroid) (seed section 2.7).
-pub fn size_deviation_3d(m: &crate::topology::TetMesh, h: &dyn Fn(DVec3) -> f64) -> f64 {
-    let v: Vec<f64> = m
-        .tet_ids()
-        .map(|t| {
-            let p = m.tet_points(t);
-            tet_circumradius(p) / h((p[0] + p[1] + p[2] + p[3]) / 4.0)
-        })
-        .collect();
-    spread(&v)
 }

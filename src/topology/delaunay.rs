@@ -94,6 +94,25 @@ impl TriMesh<DVec2> {
         self.legalize_with(stack, usize::MAX, |a, b, c, d| incircle(a, b, c, d) == Sign::Positive)
     }
 
+    /// Lawson flips (exact in-circle) from the star of `v` ([`TriMesh::star_edges`]): what a
+    /// split, a collapse or a move at `v` needs to restore the Delaunay property around it.
+    /// Returns the flip count.
+    pub fn legalize_star(&mut self, v: VertexId) -> usize {
+        let stack = self.star_edges(&[v]);
+        self.legalize(stack)
+    }
+
+    /// [`TriMesh::legalize_star`] by a caller's test (see [`TriMesh::legalize_with`]).
+    pub fn legalize_star_with(
+        &mut self,
+        v: VertexId,
+        cap: usize,
+        illegal: impl Fn(DVec2, DVec2, DVec2, DVec2) -> bool,
+    ) -> usize {
+        let stack = self.star_edges(&[v]);
+        self.legalize_with(stack, cap, illegal)
+    }
+
     /// Lawson flips by a caller's in-circle test (`illegal(a, b, c, d)`: the edge a-b with
     /// opposite vertices c (left of a->b) and d should flip), e.g. the in-circle test of a
     /// metric space (seed section 3.5). Such a test need not define a global triangulation, so

@@ -13,9 +13,11 @@ mod delaunay;
 mod disjoint_sets;
 mod incidence;
 mod queue;
+mod tet_collapse;
 mod tet_delaunay;
 mod tet_delaunay_kernel;
-pub(crate) mod tet_ops;
+mod tet_edge_removal;
+mod tet_ops;
 mod tet_validate;
 mod tetmesh;
 mod tri_ops;
@@ -27,6 +29,7 @@ pub use disjoint_sets::DisjointSets;
 pub use incidence::{Incidence, VertexIndex};
 pub use queue::QualityQueue;
 pub use tet_delaunay::{hilbert_order_3d, hilbert_sort_3d};
+pub use tet_edge_removal::Objective;
 pub use tet_ops::{Flip23Plan, Flip32Plan, TetPatch};
 pub use tetmesh::{
     EdgeShell, Journal, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_OPPOSITE, EDGE_VERTICES, FACE_VERTICES,
@@ -62,6 +65,8 @@ pub enum Refusal {
     BoundaryFace,
     /// The region is not convex enough: no valid set of new elements exists.
     NotConvex,
+    /// The best result fails the caller's acceptance test (it would not improve the mesh).
+    NotBetter,
 }
 
 impl std::fmt::Display for Refusal {
@@ -79,6 +84,7 @@ impl std::fmt::Display for Refusal {
             Refusal::NonFinite => "the point is not finite",
             Refusal::BoundaryFace => "the face is on the boundary",
             Refusal::NotConvex => "no valid set of new elements exists (not convex)",
+            Refusal::NotBetter => "the best result fails the acceptance test",
         };
         f.write_str(s)
     }

@@ -379,6 +379,15 @@ impl TetMesh {
         total
     }
 
+    /// Lawson flips (exact insphere) from the four faces of each tet around `v`, tet by tet in
+    /// the order of [`TetMesh::vertex_tets`]: what a split, a collapse or a move at `v` needs
+    /// to restore the Delaunay property around it. Returns the flip count.
+    pub fn lawson_star(&mut self, v: TVertexId) -> usize {
+        let stack: Vec<(TetId, usize)> =
+            self.vertex_tets(v).iter().flat_map(|&t| (0..4).map(move |f| (t, f))).collect();
+        self.lawson(stack)
+    }
+
     /// Lawson flips from a stack of faces: each face that fails exact insphere is removed by a
     /// 2-3 flip, or by a 3-2 flip of one of its edges; faces neither can remove are left.
     /// Returns the number of flips.

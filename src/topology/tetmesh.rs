@@ -62,7 +62,7 @@ pub struct Tet {
     pub label: u32,
 }
 
-/// The tets around an edge a-b, in order: `tets[k]` = (a, b, ring[k], ring[k+1]) is positive
+/// The tets around an edge a-b, in order: `tets[k]` = `(a, b, ring[k], ring[k+1])` is positive
 /// (indices modulo the ring length when `closed`). An open shell (boundary edge) has one more
 /// ring vertex than tets.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -728,6 +728,7 @@ impl TetMesh {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::predicates::orient3d_dir;
 
     fn reference() -> [DVec3; 4] {
         [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z]
@@ -741,9 +742,8 @@ mod tests {
             assert!(!f.contains(&i), "face {i} must not hold vertex {i}");
             assert_eq!(orient3d(p[f[0]], p[f[1]], p[f[2]], p[i]), Sign::Negative, "face {i}");
             // The outward normal points away from the centroid.
-            let n = (p[f[1]] - p[f[0]]).cross(p[f[2]] - p[f[0]]);
             let c = (p[0] + p[1] + p[2] + p[3]) / 4.0;
-            assert!(n.dot(p[f[0]] - c) > 0.0);
+            assert_eq!(orient3d_dir(p[f[0]], p[f[1]], p[f[2]], p[f[0]] - c), Sign::Positive);
         }
     }
 

@@ -407,6 +407,21 @@ impl<P: MeshPoint> TriMesh<P> {
     pub fn neighbours(&self, v: VertexId) -> SmallVec<[VertexId; 8]> {
         self.outgoing(v).into_iter().map(|h| self.dest(h)).collect()
     }
+    /// The half-edges from each vertex of `vs` and, after each one that has a face, the link
+    /// edge opposite the vertex in that face: the edges whose Delaunay test a change at the
+    /// vertex (an insertion, a collapse into it, a move) can alter.
+    pub fn star_edges(&self, vs: &[VertexId]) -> Vec<HalfEdgeId> {
+        let mut out = Vec::with_capacity(12 * vs.len());
+        for &v in vs {
+            for h in self.outgoing(v) {
+                out.push(h);
+                if self.face_of(h).is_some() {
+                    out.push(self.next(h));
+                }
+            }
+        }
+        out
+    }
     /// The faces around `v`.
     pub fn vertex_faces(&self, v: VertexId) -> SmallVec<[FaceId; 8]> {
         self.outgoing(v).into_iter().filter_map(|h| self.face_of(h)).collect()

@@ -36,19 +36,10 @@ pub(super) fn freeze_far_nodes(ctx: &Ctx, m: &mut TriMesh<DVec2>, fz: &Freeze) -
     Ok(frozen)
 }
 
-/// The half-edges from each vertex and the link edges opposite it: the edges whose Delaunay
-/// test a change at the vertex can alter.
+/// The engine's [`TriMesh::star_edges`]: the half-edges from each vertex and the link edges
+/// opposite it, the edges whose Delaunay test a change at the vertex can alter.
 pub(super) fn star_edges(m: &TriMesh<DVec2>, vertices: &[VertexId]) -> Vec<HalfEdgeId> {
-    let mut out = Vec::with_capacity(12 * vertices.len());
-    for &v in vertices {
-        for h in m.outgoing(v) {
-            out.push(h);
-            if m.face_of(h).is_some() {
-                out.push(m.next(h));
-            }
-        }
-    }
-    out
+    m.star_edges(vertices)
 }
 
 /// Boundary nodes pushed inside become interior (a boundary ear is filled over them); interior

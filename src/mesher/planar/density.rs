@@ -101,7 +101,7 @@ pub(super) fn density_candidates(
 /// roots (the repair scan tests every triangle and finds almost none): q = 16 A^2 / (P la lb lc)
 /// with perimeter P <= 3 L and each side <= L (L the longest), so q >= 16 A^2 / (3 L^4).
 pub(super) fn surely_not_below_repair(a: DVec2, b: DVec2, c: DVec2) -> bool {
-    let twice_area = (b - a).perp_dot(c - a);
+    let twice_area = 2.0 * crate::quality::triangle_area([a, b, c]);
     let l2 = a.distance_squared(b).max(b.distance_squared(c)).max(c.distance_squared(a));
     // 16 A^2 = 4 (2A)^2; a margin of 1% covers the rounding of both sides.
     4.0 * twice_area * twice_area >= 1.01 * 3.0 * Q_REPAIR * l2 * l2
@@ -230,14 +230,10 @@ pub(super) fn try_collapse(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, h: HalfEdgeId)
     Ok(false)
 }
 
+/// Lawson flips from the star of `v` ([`TriMesh::star_edges`]) by [`Ctx::legalize`]'s test:
+/// exact in-circle, or the metric's.
 pub(super) fn legalize_vertex(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) {
-    let mut stack = Vec::new();
-    for h in m.outgoing(v) {
-        stack.push(h);
-        if m.face_of(h).is_some() {
-            stack.push(m.next(h));
-        }
-    }
+    let stack = m.star_edges(&[v]);
     ctx.report.ops.flips += ctx.legalize(m, stack);
 }
 

@@ -231,7 +231,7 @@ pub(super) fn apply(
             }
             match m.split_edge(x, mid) {
                 Ok(v) => {
-                    legalize_around(m, v);
+                    m.legalize_star(v);
                     Ok(Some(vec![v]))
                 }
                 Err(_) => Ok(None),
@@ -252,25 +252,13 @@ pub(super) fn apply(
             let Some((e, pos)) = try_ else { return Ok(None) };
             match m.collapse(e, pos) {
                 Ok(v) => {
-                    legalize_around(m, v);
+                    m.legalize_star(v);
                     Ok(Some(vec![v]))
                 }
                 Err(_) => Ok(None),
             }
         }
     }
-}
-
-/// Delaunay flips from the edges around `v` and opposite it.
-pub(super) fn legalize_around(m: &mut TriMesh<DVec2>, v: VertexId) {
-    let mut stack = Vec::new();
-    for h in m.outgoing(v) {
-        stack.push(h);
-        if m.face_of(h).is_some() {
-            stack.push(m.next(h));
-        }
-    }
-    m.legalize(stack);
 }
 
 /// Fscale sqrt(sum L^2 / sum h_bar^2) over the edges of `m` (seed eq. 2.6): the rest length

@@ -5,6 +5,7 @@
 use super::density::{edge_list, edge_now};
 use super::geom::{faces_out, project_grad, SizeField};
 use crate::geometry::Implicit3;
+use crate::predicates::{orient3d_dir, Sign};
 use crate::quality::triangle_q3;
 use crate::topology::{HalfEdgeId, TriMesh, VertexId};
 use crate::Error;
@@ -157,7 +158,8 @@ pub fn move_if_no_fold(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, v: VertexId,
 
 /// [`move_if_no_fold`] with grad phi at `p` already known.
 pub fn move_if_no_fold_g(m: &mut TriMesh<DVec3>, v: VertexId, p: DVec3, g: DVec3) -> bool {
-    if !(g.length_squared() > 0.0) {
+    // NaN fails the comparison too: no gradient, no move.
+    if g.length_squared().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return false;
     }
     let start = m.vertex(v).out;
@@ -166,8 +168,7 @@ pub fn move_if_no_fold_g(m: &mut TriMesh<DVec3>, v: VertexId, p: DVec3, g: DVec3
         if m.face_of(x).is_some() {
             let y = m.next(x);
             let (b, c) = (m.pos(m.origin(y)), m.pos(m.dest(y)));
-            let n = (b - p).cross(c - p);
-            if !(n.dot(g) > 0.0) {
+            if orient3d_dir(p, b, c, g) != Sign::Positive {
                 return false;
             }
         }

@@ -7,10 +7,9 @@ use super::smoothing::smooth_vertex;
 use super::Ctx;
 use crate::predicates::{orient3d, Sign};
 use crate::quality::tet_dihedral_quality;
-use crate::topology::{TVertexId, TetId, TetMesh, TetPatch, VertexTag, EDGE_VERTICES};
+use crate::topology::{EdgeShell, Objective, TVertexId, TetId, TetMesh, TetPatch, VertexTag, EDGE_VERTICES};
 use crate::Error;
 use glam::DVec3;
-use smallvec::SmallVec;
 use std::collections::HashMap;
 
 /// Boundary edges whose two boundary triangles fail the planar Delaunay test (opposite angles
@@ -44,34 +43,32 @@ pub(super) fn surface_flips(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Err
         if s.closed {
             continue;
         }
-        if let Some((plan, q)) = ring_patch(ctx, m, &s, true)? {
-            if q > 0.05 {
-                m.apply_patch(plan);
-                n += 1;
-            }
+        if let Some((plan, _)) = ring_patch(ctx, m, &s, true, |q| q > 0.05)? {
+            m.apply_patch(plan);
+            n += 1;
         }
     }
     ctx.report.ops.flips += n;
     Ok(n)
 }
 
-/// Removal of the edge of shell `s` (interior or, with `allow_boundary`, boundary): the ring
-/// polygon is triangulated by dynamic programming maximising the worst
-/// [`tet_dihedral_quality`] (Shewchuk's edge removal); each ring triangle makes one tet with
-/// each end. For a boundary edge the ring is open, its two ends become the new boundary edge,
-/// which must stay near d = 0 (the flip may not cut across a sharp edge of the domain).
-/// Returns the patch and its worst tq.
-#[allow(clippy::needless_range_loop)]
+/// Removal of the edge of shell `s` (interior or, with `allow_boundary`, boundary) by the
+/// engine's ring retriangulation maximising the worst [`tet_dihedral_quality`] (Shewchuk's
+/// edge removal), taken when `accept` takes that worst value. For a boundary edge the ring is
+/// open, its two ends become the new boundary edge, which must stay near d = 0 (the flip may
+/// not cut across a sharp edge of the domain). Returns the patch and its worst tq.
 pub(super) fn ring_patch(
     ctx: &Ctx,
     m: &TetMesh,
-    s: &crate::topology::EdgeShell,
+    s: &EdgeShell,
     allow_boundary: bool,
+    accept: impl Fn(f64) -> bool,
 ) -> Result<Option<(TetPatch, f64)>, Error> {
     let n = s.ring.len();
     if !(3..=12).contains(&n) || (!s.closed && !allow_boundary) {
         return Ok(None);
     }
+    // The engine refuses an internal boundary too; checked first to spare the distances.
     let label = m.tet(s.tets[0]).label;
     if s.tets.iter().any(|&t| m.tet(t).label != label) {
         return Ok(None);
@@ -84,33 +81,7 @@ pub(super) fn ring_patch(
             return Ok(None);
         }
     }
-    let (pa, pb) = (m.pos(s.a), m.pos(s.b));
-    let pc: SmallVec<[DVec3; 12]> = s.ring.iter().map(|&c| m.pos(c)).collect();
-    let tri_q = |i: usize, j: usize, k: usize| -> f64 {
-        let (ci, cj, ck) = (pc[i], pc[j], pc[k]);
-        if orient3d(pa, ci, cj, ck) != Sign::Positive || orient3d(ci, cj, ck, pb) != Sign::Positive {
-            return -1.0;
-        }
-        tet_dihedral_quality([pa, ci, cj, ck]).min(tet_dihedral_quality([ci, cj, ck, pb]))
-    };
-    let (worst, choice) = crate::topology::tet_ops::best_ring_triangulation(n, tri_q);
-    if worst < 0.0 {
-        return Ok(None);
-    }
-    let (new, mut diagonals) = crate::topology::tet_ops::ring_tets(s.a, s.b, &s.ring, &choice, label);
-    if !s.closed {
-        diagonals.push((0, n - 1));
-    }
-    for &(i, j) in &diagonals {
-        let ring_edge = s.closed && ((j + 1) % n == i || (i + 1) % n == j);
-        if !ring_edge && m.find_edge(s.ring[i], s.ring[j]).is_some() {
-            return Ok(None);
-        }
-    }
-    if n == 3 && s.closed && m.has_face(s.ring[0], s.ring[1], s.ring[2]) {
-        return Ok(None);
-    }
-    Ok(Some((TetPatch::raw(s.tets.iter().copied().collect(), new, None), worst)))
+    Ok(m.ring_retriangulation(s, tet_dihedral_quality, Objective::Worst, accept).ok())
 }
 
 /// Every boundary node onto d = 0 where the tets allow it (checked moves).

@@ -60,7 +60,7 @@ pub(super) fn density_control(
             changed = true;
             touched[i as usize] = true;
             touched[j as usize] = true;
-            ctx.report.ops.flips += lawson_around(m, v);
+            ctx.report.ops.flips += m.lawson_star(v);
         }
     }
     short.sort_by(|x, y| x.0.total_cmp(&y.0).then((x.1, x.2).cmp(&(y.1, y.2))));
@@ -99,7 +99,7 @@ pub(super) fn density_control(
             touched[i as usize] = true;
             touched[j as usize] = true;
             let v = m.tet(t).v[0];
-            ctx.report.ops.flips += lawson_around(m, v);
+            ctx.report.ops.flips += m.lawson_star(v);
         }
     }
     Ok(changed)
@@ -110,10 +110,4 @@ pub(super) fn edge_index(m: &TetMesh, t: TetId, a: TVertexId, b: TVertexId) -> u
     let (i, j) = (m.local_index(t, a).expect("edge"), m.local_index(t, b).expect("edge"));
     let (i, j) = (i.min(j), i.max(j));
     EDGE_VERTICES.iter().position(|&[x, y]| x == i && y == j).expect("edge")
-}
-
-/// Lawson flips on the faces of the star of `v`.
-fn lawson_around(m: &mut TetMesh, v: TVertexId) -> usize {
-    let stack: Vec<(TetId, usize)> = m.vertex_tets(v).iter().flat_map(|&t| (0..4).map(move |f| (t, f))).collect();
-    m.lawson(stack)
 }

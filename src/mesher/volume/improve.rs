@@ -6,7 +6,7 @@ use super::smoothing::{coloured_smoothing, mean_smooth_target, smooth_target, st
 use super::{Ctx, CHUNK, GEPS, RR_SLACK, RR_TQ_FLOOR};
 use crate::predicates::{orient3d, Sign};
 use crate::quality::{dihedral_quality_cos_bounds, tet_dihedral_quality, tet_dihedral_quality_below};
-use crate::topology::{TVertexId, TetId, TetMesh, TetPatch, VertexTag, EDGE_VERTICES};
+use crate::topology::{EdgeShell, Objective, TVertexId, TetId, TetMesh, TetPatch, VertexTag, EDGE_VERTICES};
 use crate::Error;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -125,10 +125,9 @@ fn find_swap(ctx: &Ctx, m: &TetMesh, t: TetId) -> Result<Option<Swap>, Error> {
     for [i, j] in EDGE_VERTICES {
         let s = m.edge_shell(t, i, j);
         let old = s.tets.iter().map(|&u| tet_dihedral_quality(m.tet_points(u))).fold(f64::INFINITY, f64::min);
-        if let Some((plan, q)) = ring_patch(ctx, m, &s, true)? {
-            if q > old + 1e-6 && best.as_ref().is_none_or(|b| q - old > b.0) {
-                best = Some((q - old, plan));
-            }
+        let better = |q: f64| q > old + 1e-6 && best.as_ref().is_none_or(|b| q - old > b.0);
+        if let Some((plan, q)) = ring_patch(ctx, m, &s, true, better)? {
+            best = Some((q - old, plan));
         }
     }
     let tx = *m.tet(t);
@@ -326,16 +325,11 @@ pub(super) fn mean_quality_round(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize
     Ok(changes + coloured_smoothing(ctx, m, None, mean_smooth_target)?)
 }
 
-/// The removal of an interior edge whose ring triangulation (dynamic programming on the summed
+/// The removal of an interior edge whose ring triangulation (the engine's, on the summed
 /// radius ratio, every tet above the dihedral floor) raises the mean radius ratio.
-#[allow(clippy::needless_range_loop)]
-fn mean_ring_patch(m: &TetMesh, s: &crate::topology::EdgeShell, mean: f64) -> Option<TetPatch> {
+fn mean_ring_patch(m: &TetMesh, s: &EdgeShell, mean: f64) -> Option<TetPatch> {
     let n = s.ring.len();
     if !s.closed || !(3..=7).contains(&n) {
-        return None;
-    }
-    let label = m.tet(s.tets[0]).label;
-    if s.tets.iter().any(|&t| m.tet(t).label != label) {
         return None;
     }
     let rr = crate::quality::tet_radius_ratio;
@@ -347,51 +341,9 @@ fn mean_ring_patch(m: &TetMesh, s: &crate::topology::EdgeShell, mean: f64) -> Op
         old_min = old_min.min(tet_dihedral_quality(p));
     }
     let floor = old_min.min(RR_TQ_FLOOR);
-    let (pa, pb) = (m.pos(s.a), m.pos(s.b));
-    let pc: SmallVec<[DVec3; 12]> = s.ring.iter().map(|&c| m.pos(c)).collect();
-    let tri = |i: usize, j: usize, k: usize| -> f64 {
-        let (ci, cj, ck) = (pc[i], pc[j], pc[k]);
-        if orient3d(pa, ci, cj, ck) != Sign::Positive || orient3d(ci, cj, ck, pb) != Sign::Positive {
-            return f64::NEG_INFINITY;
-        }
-        let (x, y) = ([pa, ci, cj, ck], [ci, cj, ck, pb]);
-        if tet_dihedral_quality(x).min(tet_dihedral_quality(y)) < floor {
-            return f64::NEG_INFINITY;
-        }
-        rr(x) + rr(y)
-    };
-    let mut best = [[0.0f64; 12]; 12];
-    let mut choice = [[0usize; 12]; 12];
-    for len in 2..n {
-        for i in 0..n - len {
-            let j = i + len;
-            let mut b = f64::NEG_INFINITY;
-            for k in i + 1..j {
-                let v = tri(i, k, j) + best[i][k] + best[k][j];
-                if v > b {
-                    b = v;
-                    choice[i][j] = k;
-                }
-            }
-            best[i][j] = b;
-        }
-    }
-    let new_sum = best[0][n - 1];
-    if !new_sum.is_finite() {
-        return None;
-    }
-    let gain = new_sum - old_sum - mean * (2.0 * n as f64 - 4.0 - n as f64);
-    if gain <= RR_GAIN {
-        return None;
-    }
-    let (new, diagonals) = crate::topology::tet_ops::ring_tets(s.a, s.b, &s.ring, &choice, label);
-    for &(i, j) in &diagonals {
-        if (j + 1) % n != i && (i + 1) % n != j && m.find_edge(s.ring[i], s.ring[j]).is_some() {
-            return None;
-        }
-    }
-    if n == 3 && m.has_face(s.ring[0], s.ring[1], s.ring[2]) {
-        return None;
-    }
-    Some(TetPatch::raw(s.tets.iter().copied().collect(), new, None))
+    let quality = |p: [DVec3; 4]| if tet_dihedral_quality(p) < floor { -1.0 } else { rr(p) };
+    // 2n - 4 tets replace n.
+    let more = 2.0 * n as f64 - 4.0 - n as f64;
+    let pays = |new_sum: f64| new_sum - old_sum - mean * more > RR_GAIN;
+    m.ring_retriangulation(s, quality, Objective::Sum, pays).ok().map(|(plan, _)| plan)
 }
