@@ -3,6 +3,7 @@
 //! Kept as the reference the local engine must beat, in tests and benches.
 
 use super::input::{eval_d, eval_h_floor, survey};
+use super::truss::{bar_force, RestScale};
 use super::{MeshOutput2, Options2, QualityStats, Report, StopReason};
 use crate::geometry::project::{project2, Projection};
 use crate::geometry::Implicit2;
@@ -96,26 +97,20 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
             report.ops.flips += 1;
         }
         // 6. Forces (seed eq. 2.5, 2.6).
-        let mut sl = 0.0;
-        let mut sh = 0.0;
+        let mut rest = RestScale::new(2);
         let mut hb = Vec::with_capacity(bars.len());
         for b in &bars {
             let h = eval_h_floor(opts, (p[b[0]] + p[b[1]]) * 0.5, floor)?;
-            sl += p[b[0]].distance_squared(p[b[1]]);
-            sh += h * h;
+            rest.add(p[b[0]].distance_squared(p[b[1]]), h);
             hb.push(h);
         }
-        let scale = opts.fscale * (sl / sh).sqrt();
+        let scale = rest.scale(opts.fscale);
         let mut f = vec![DVec2::ZERO; p.len()];
         for (b, h) in bars.iter().zip(&hb) {
             let d = p[b[0]] - p[b[1]];
-            let l = d.length();
-            let l0 = h * scale;
-            if l > 0.0 && l0 > l {
-                let fv = d * ((l0 - l) / l);
-                f[b[0]] += fv;
-                f[b[1]] -= fv;
-            }
+            let fv = bar_force(d, d.length(), h * scale);
+            f[b[0]] += fv;
+            f[b[1]] -= fv;
         }
         for x in f.iter_mut().take(nfix) {
             *x = DVec2::ZERO;
