@@ -4,6 +4,7 @@
 use super::geom::{residual, SizeField};
 use crate::geometry::Implicit3;
 use crate::mesher::report::Report;
+use crate::predicates::{orient3d_dir, Sign};
 use crate::quality::{triangle_angles_deg, triangle_q_from_lengths};
 use crate::topology::{Level, TriMesh};
 use glam::DVec3;
@@ -70,7 +71,7 @@ impl SurfaceQuality {
             let dev = residual(phi, cen) / size.at(cen);
             cmax = cmax.max(dev);
             csum += dev;
-            if (b - a).cross(c - a).dot(phi.gradient(cen)) <= 0.0 {
+            if orient3d_dir(a, b, c, phi.gradient(cen)) != Sign::Positive {
                 inward += 1;
             }
         }

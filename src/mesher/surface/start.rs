@@ -11,6 +11,7 @@
 use super::geom::{self, project};
 use super::improve::move_if_no_fold;
 use crate::geometry::Implicit3;
+use crate::predicates::{orient3d_dir, Sign};
 use crate::topology::{TriMesh, VertexId};
 use crate::Error;
 use glam::DVec3;
@@ -156,8 +157,7 @@ pub fn march(phi: &dyn Implicit3, bbox: [DVec3; 2], h: f64) -> Result<Marched, E
                     }
                     for mut t in tris {
                         // Orient by the side of phi > 0: the normal points from inside to outside.
-                        let nrm = (points[t[1]] - points[t[0]]).cross(points[t[2]] - points[t[0]]);
-                        if nrm.dot(grad_lin) < 0.0 {
+                        if orient3d_dir(points[t[0]], points[t[1]], points[t[2]], grad_lin) == Sign::Negative {
                             t.swap(1, 2);
                         }
                         triangles.push(t);

@@ -1,6 +1,6 @@
 //! The truss step of a patch mesh: bar forces in space, projection back onto the patch.
 
-use super::{edges_sorted, orient, BezierOptions, Kind, RationalBezierPatch};
+use super::{ccw, edges_sorted, BezierOptions, Kind, RationalBezierPatch};
 use crate::mesher::truss::{bar_force, RestScale};
 use glam::{DVec2, DVec3};
 
@@ -87,7 +87,7 @@ pub(super) fn force_step(
         let ok = joined
             || around[i].iter().all(|&k| {
                 let t = tris[k];
-                orient(uv[t[0]], uv[t[1]], uv[t[2]]) > 0.0
+                ccw(uv[t[0]], uv[t[1]], uv[t[2]])
             });
         if ok {
             let np = pos_of(new_uv);

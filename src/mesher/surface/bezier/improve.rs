@@ -1,6 +1,6 @@
 //! Quality flips of a patch mesh in space.
 
-use super::{edge_map, orient};
+use super::{ccw, edge_map};
 use crate::quality::triangle_q3;
 use glam::{DVec2, DVec3};
 
@@ -26,11 +26,11 @@ pub(super) fn flip_pass(pts: &[DVec3], uv: &[DVec2], tris: &mut [[usize; 3]]) ->
                 continue;
             }
             // Orient: t0 = (a, b, c) counter-clockwise or (b, a, c).
-            let (a, b) = if orient(uv[a], uv[b], uv[c]) > 0.0 { (a, b) } else { (b, a) };
+            let (a, b) = if ccw(uv[a], uv[b], uv[c]) { (a, b) } else { (b, a) };
             let old = triangle_q3([pts[a], pts[b], pts[c]]).min(triangle_q3([pts[b], pts[a], pts[d]]));
             let n0 = [c, a, d];
             let n1 = [d, b, c];
-            if orient(uv[n0[0]], uv[n0[1]], uv[n0[2]]) <= 0.0 || orient(uv[n1[0]], uv[n1[1]], uv[n1[2]]) <= 0.0 {
+            if !ccw(uv[n0[0]], uv[n0[1]], uv[n0[2]]) || !ccw(uv[n1[0]], uv[n1[1]], uv[n1[2]]) {
                 continue;
             }
             let new = triangle_q3(n0.map(|i| pts[i])).min(triangle_q3(n1.map(|i| pts[i])));

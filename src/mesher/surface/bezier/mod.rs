@@ -338,12 +338,8 @@ pub(super) fn edges_sorted(tris: &[[usize; 3]]) -> Vec<((usize, usize), Vec<usiz
 
 /// Exact orientation in the parameter plane: a regular patch keeps a triangle unfolded in
 /// space exactly when it keeps it counter-clockwise in (u, v).
-pub(super) fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
-    robust::orient2d(
-        robust::Coord { x: a.x, y: a.y },
-        robust::Coord { x: b.x, y: b.y },
-        robust::Coord { x: c.x, y: c.y },
-    )
+pub(super) fn ccw(a: DVec2, b: DVec2, c: DVec2) -> bool {
+    crate::predicates::orient2d(a, b, c) == crate::predicates::Sign::Positive
 }
 
 /// Density control runs every this many force iterations (not in the last stretch).

@@ -3,7 +3,7 @@
 //! parameter plane cut to the trim (a start only: the flips in space then make it good in
 //! space).
 
-use super::{edges_sorted, orient, BezierOptions, Kind, RationalBezierPatch};
+use super::{ccw, edges_sorted, BezierOptions, Kind, RationalBezierPatch};
 use crate::topology::TriMesh;
 use crate::Error;
 use glam::{DVec2, DVec3};
@@ -176,7 +176,7 @@ pub(super) fn triangulate(
                 }
             }
         }
-        tris.retain(|t| orient(uv[t[0]], uv[t[1]], uv[t[2]]) > 0.0);
+        tris.retain(|t| ccw(uv[t[0]], uv[t[1]], uv[t[2]]));
         if tris.is_empty() {
             return Err(Error::EmptyDomain("the trim leaves no triangle of the patch".into()));
         }
