@@ -12,7 +12,6 @@
 mod delaunay;
 mod disjoint_sets;
 mod incidence;
-mod queue;
 mod tet_collapse;
 mod tet_delaunay;
 mod tet_delaunay_kernel;
@@ -27,7 +26,6 @@ mod trimesh;
 pub use delaunay::hilbert_order;
 pub use disjoint_sets::DisjointSets;
 pub use incidence::{Incidence, VertexIndex};
-pub use queue::QualityQueue;
 pub use tet_delaunay::{hilbert_order_3d, hilbert_sort_3d};
 pub use tet_edge_removal::Objective;
 pub use tet_ops::{Flip23Plan, Flip32Plan, TetPatch};

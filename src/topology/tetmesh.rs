@@ -384,14 +384,6 @@ impl TetMesh {
     pub fn volume(&self) -> f64 {
         self.tets.keys().map(|t| self.tet_volume(t)).sum()
     }
-    /// A worst-first queue of every tet by [`TetMesh::tet_quality`].
-    pub fn quality_queue(&self) -> super::QualityQueue<TetId> {
-        let mut q = super::QualityQueue::new();
-        for t in self.tets.keys() {
-            q.push(t, self.tet_quality(t));
-        }
-        q
-    }
 
     // ----- navigation -----
 
