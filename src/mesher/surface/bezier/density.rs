@@ -2,11 +2,15 @@
 //! ones get their midpoint, slivers against the boundary lose the node pressed into them.
 
 use super::{edges_sorted, BezierOptions, Kind, RationalBezierPatch};
+use crate::mesher::truss::DensityBand;
 use crate::quality::triangle_q3;
 use glam::{DVec2, DVec3};
 
-/// Density control (seed section 2.4): a free node on an edge shorter than h/2 is removed, an
-/// interior edge longer than 1.6 h gets its midpoint (projected onto the patch). Removing nodes
+/// Edges longer than 1.6 h get a node, shorter than h / 2 lose one (the surface mesher's band).
+const BAND: DensityBand = DensityBand::new(1.6, 0.5);
+
+/// Density control (seed section 2.4): a free node on an edge below `BAND` is removed,
+/// an interior edge above it gets its midpoint (projected onto the patch). Removing nodes
 /// that the pressure pushed against a fixed side is what keeps slivers off the sides. Returns
 /// whether anything changed (the caller then retriangulates).
 #[allow(clippy::too_many_arguments)]
@@ -25,7 +29,7 @@ pub(super) fn density(
     let mut add_trim: Vec<DVec2> = Vec::new();
     for ((a, b), ts) in edges_sorted(tris) {
         let l = pts[a].distance(pts[b]);
-        if l < 0.5 * h {
+        if l < BAND.collapse_below * h {
             if gone[a] || gone[b] {
                 continue;
             }
@@ -33,10 +37,10 @@ pub(super) fn density(
             if let Some(i) = victim {
                 gone[i] = true;
             }
-        } else if l > 1.6 * h && ts.len() == 2 && kind[a] != Kind::Fixed && kind[b] != Kind::Fixed {
+        } else if l > BAND.split_above * h && ts.len() == 2 && kind[a] != Kind::Fixed && kind[b] != Kind::Fixed {
             let mid = 0.5 * (uv[a] + uv[b]);
             add.push(if opts.in_space { p.project(0.5 * (pts[a] + pts[b]), mid, None) } else { mid });
-        } else if l > 1.6 * h && ts.len() == 1 && (kind[a] == Kind::Trim || kind[b] == Kind::Trim) {
+        } else if l > BAND.split_above * h && ts.len() == 1 && (kind[a] == Kind::Trim || kind[b] == Kind::Trim) {
             // A long piece of the trim curve: a new node on the curve.
             let mid = 0.5 * (uv[a] + uv[b]);
             let q = if opts.in_space { p.project(0.5 * (pts[a] + pts[b]), mid, None) } else { mid };
