@@ -117,16 +117,20 @@ pub struct Grid2 {
     ax: [Axis; 2],
     values: Vec<f64>,
     bumps: Bumps<DVec2>,
+    /// Gradients shorter than this are returned as zero (see [`tiny_slope`]).
+    tiny: f64,
 }
 
 impl Grid2 {
     /// Needs at least 4 nodes per axis, a positive spacing and `nx ny` finite values.
     pub fn new(origin: [f64; 2], h: f64, nx: usize, ny: usize, values: Vec<f64>) -> Result<Self, String> {
         check(&origin, h, &[nx, ny], &values)?;
+        let tiny = tiny_slope(&values, h);
         Ok(Grid2 {
             ax: [Axis { origin: origin[0], h, n: nx }, Axis { origin: origin[1], h, n: ny }],
             values,
             bumps: Bumps::default(),
+            tiny,
         })
     }
 
@@ -236,6 +240,9 @@ impl Grid2 {
                 g.y = n.y;
             }
         }
+        if g.length() < self.tiny {
+            g = DVec2::ZERO;
+        }
         (v, g)
     }
 
@@ -264,12 +271,15 @@ pub struct Grid3 {
     ax: [Axis; 3],
     values: Vec<f64>,
     bumps: Bumps<DVec3>,
+    /// Gradients shorter than this are returned as zero (see [`tiny_slope`]).
+    tiny: f64,
 }
 
 impl Grid3 {
     /// Needs at least 4 nodes per axis, a positive spacing and `nx ny nz` finite values.
     pub fn new(origin: [f64; 3], h: f64, n: [usize; 3], values: Vec<f64>) -> Result<Self, String> {
         check(&origin, h, &n, &values)?;
+        let tiny = tiny_slope(&values, h);
         Ok(Grid3 {
             ax: [
                 Axis { origin: origin[0], h, n: n[0] },
@@ -278,6 +288,7 @@ impl Grid3 {
             ],
             values,
             bumps: Bumps::default(),
+            tiny,
         })
     }
 
@@ -397,6 +408,9 @@ impl Grid3 {
                 }
             }
         }
+        if g.length() < self.tiny {
+            g = DVec3::ZERO;
+        }
         (v, g)
     }
 
@@ -417,6 +431,16 @@ impl Grid3 {
             list.iter().for_each(|&k| one(&b.all[k as usize]));
         }
     }
+}
+
+/// The length below which a gradient of the interpolant is round-off: 1e-10 of the largest
+/// slope between neighbouring samples. At a symmetric critical point (the centre of a level set
+/// such as (x^4 + y^4)^(1/4)) interpolation leaves a gradient of 1e-17 instead of zero, and
+/// the meshers' approximate distance d / |grad d| would then call the point infinitely far
+/// outside; a zero gradient makes them fall back to d.
+fn tiny_slope(values: &[f64], h: f64) -> f64 {
+    let max = values.windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
+    1e-10 * max / h
 }
 
 fn check(origin: &[f64], h: f64, n: &[usize], values: &[f64]) -> Result<(), String> {

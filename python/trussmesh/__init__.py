@@ -19,8 +19,8 @@ an expression string of the command line's language (``"sqrt(x^2+y^2)-1"``, with
 
 How callables are evaluated: the library asks for d(x) and h(x) one point at a time, from
 several threads, so a callable is never called per point. It is called in batches of up to
-2^20 points on a Cartesian grid over the box padded by 2 h0 (spacing h0/8 in the plane, h0/4
-in space; ``grid_spacing=`` sets it), before the run, and the mesher interpolates the samples
+2^20 points on a Cartesian grid over the box padded by 2 h0 (spacing h0/4; ``grid_spacing=``
+sets it), before the run, and the mesher interpolates the samples
 (cubic convolution) without the GIL. Afterwards the boundary nodes are projected onto the true
 zero set of the callable, in a few more batched calls (``snap=False`` skips this), and the
 given fixed points are made exact zeros of the interpolant. ``report["sampling"]`` says how
@@ -61,8 +61,9 @@ __all__ = [
 ArrayLike = Any
 Field = Union[str, Callable[[np.ndarray], ArrayLike]]
 
-#: Grid spacing of sampled callables, as a fraction of h0: h0/8 in the plane, h0/4 in space.
-GRID_DIVISOR = {2: 8.0, 3: 4.0}
+#: Grid spacing of sampled callables, as a fraction of h0: h0/4 (finer costs time; corners
+#: are rounded within two cells, fixed points are made exact).
+GRID_DIVISOR = {2: 4.0, 3: 4.0}
 #: Sampling grids larger than this are coarsened (with a warning).
 MAX_GRID_NODES = 1 << 24
 #: Points per call of a sampled callable at most.
