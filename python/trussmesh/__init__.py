@@ -372,53 +372,123 @@ def _signed_measure(p: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a)
 
 
+def _project(grid: _Grid, f: Callable, name: str, p: np.ndarray, h0: float) -> Tuple[np.ndarray, np.ndarray]:
+    """First-order projection steps onto f = 0 (p - f grad f / |grad f|^2, gradients by central
+    differences), each step one batched call. Returns the points and f at the start."""
+    dim = p.shape[1]
+    p = p.copy()
+    eye = np.eye(dim) * (1e-6 * h0)
+    d0: Optional[np.ndarray] = None
+    for _ in range(4):
+        v = grid.call(f, name, np.concatenate([p] + [p + e for e in eye] + [p - e for e in eye])).reshape(2 * dim + 1, -1)
+        if d0 is None:
+            d0 = v[0]
+        if float(np.abs(v[0]).max()) <= 1e-12 * h0:
+            break
+        g = ((v[1 : dim + 1] - v[dim + 1 :]) / (2e-6 * h0)).T
+        g2 = (g * g).sum(axis=1)
+        ok = g2 > 0
+        p[ok] -= (v[0][ok] / g2[ok])[:, None] * g[ok]
+    assert d0 is not None
+    return p, d0
+
+
+def _gradient(grid: _Grid, f: Callable, name: str, p: np.ndarray, h0: float) -> np.ndarray:
+    """Central-difference gradients at the rows of p, in one batched call."""
+    dim = p.shape[1]
+    eye = np.eye(dim) * (1e-6 * h0)
+    v = grid.call(f, name, np.concatenate([p + e for e in eye] + [p - e for e in eye])).reshape(2 * dim, -1)
+    return ((v[:dim] - v[dim:]) / (2e-6 * h0)).T
+
+
+def _keep_orientation(old: np.ndarray, new: np.ndarray, cells: np.ndarray, moved: np.ndarray) -> None:
+    """Puts back the moved vertices of every cell whose orientation the moves flipped."""
+    sign = np.sign(_signed_measure(old, cells))
+    touched = np.zeros(len(old), dtype=bool)
+    touched[moved] = True
+    for _ in range(3):
+        flipped = (np.sign(_signed_measure(new, cells)) != sign) & touched[cells].any(axis=1)
+        if not flipped.any():
+            break
+        back = np.unique(cells[flipped])
+        back = back[touched[back]]
+        new[back] = old[back]
+
+
+def _corners_2d(
+    grid: _Grid, f: Callable, name: str, points: np.ndarray, cells: np.ndarray, tags: np.ndarray, pfix: Optional[np.ndarray], h0: float
+) -> int:
+    """Moves the corners the mesher found on the interpolant (fixed vertices that were not
+    given) onto the callable's corners: where the tangent lines of the two sides meet, the
+    sides sampled ever closer to the corner (h0/2 to h0/64 away), projected onto f = 0.
+    Returns how many moved."""
+    cand = np.flatnonzero(tags == 2)
+    if pfix is not None and len(pfix):
+        given = (points[cand][:, None, :] == pfix[None]).all(axis=2).any(axis=1)
+        cand = cand[~given]
+    if cand.size == 0:
+        return 0
+    n = len(points)
+    e = np.sort(np.concatenate([cells[:, [0, 1]], cells[:, [1, 2]], cells[:, [2, 0]]]), axis=1)
+    code, count = np.unique(e[:, 0] * n + e[:, 1], return_counts=True)
+    bedge = np.column_stack([code[count == 1] // n, code[count == 1] % n])
+    corner, side_a, side_b = [], [], []
+    for c in cand:
+        nb = np.concatenate([bedge[bedge[:, 0] == c, 1], bedge[bedge[:, 1] == c, 0]])
+        if nb.size == 2:
+            corner.append(c)
+            side_a.append(nb[0])
+            side_b.append(nb[1])
+    if not corner:
+        return 0
+    idx = np.array(corner)
+    c0 = points[idx].copy()
+    c = c0.copy()
+    a, b = points[side_a], points[side_b]
+    m = len(idx)
+    for k in range(1, 7):
+        q, _ = _project(grid, f, name, np.concatenate([c + (a - c) / 2**k, c + (b - c) / 2**k]), h0)
+        g = _gradient(grid, f, name, q, h0)
+        qa, qb, na, nb = q[:m], q[m:], g[:m], g[m:]
+        det = na[:, 0] * nb[:, 1] - na[:, 1] * nb[:, 0]
+        sharp = np.abs(det) > 0.1 * np.linalg.norm(na, axis=1) * np.linalg.norm(nb, axis=1)
+        ra, rb = (na * qa).sum(axis=1), (nb * qb).sum(axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = np.column_stack([(ra * nb[:, 1] - rb * na[:, 1]) / det, (na[:, 0] * rb - nb[:, 0] * ra) / det])
+        ok = sharp & np.isfinite(x).all(axis=1) & (np.linalg.norm(x - c0, axis=1) < 0.25 * h0)
+        c[ok] = x[ok]
+    # Keep a corner only where f says it is closer to d = 0 than before.
+    before = np.abs(grid.call(f, name, c0))
+    after = np.abs(grid.call(f, name, c))
+    worse = ~(after < before)
+    c[worse] = c0[worse]
+    new = points.copy()
+    new[idx] = c
+    _keep_orientation(points, new, cells, idx)
+    moved = int((new[idx] != points[idx]).any(axis=1).sum())
+    points[idx] = new[idx]
+    return moved
+
+
 def _snap(
     grid: _Grid, f: Callable, name: str, points: np.ndarray, cells: np.ndarray, tags: np.ndarray, h0: float
 ) -> Dict[str, Any]:
-    """Projects the free boundary vertices onto f = 0 (first-order steps, gradients by central
-    differences; every step one batched call); a vertex whose move would invert a cell keeps
-    its place. Returns what it did."""
-    dim = points.shape[1]
-    surface = cells.shape[1] == 3 and dim == 3
+    """Projects the free boundary vertices onto f = 0 (see `_project`); a vertex whose move
+    would make f larger or invert a cell keeps its place. Returns what it did."""
+    surface = cells.shape[1] == 3 and points.shape[1] == 3
     idx = np.flatnonzero(tags == 1)
     info: Dict[str, Any] = {"nodes": int(idx.size), "max_abs_d_before": 0.0, "max_abs_d_after": 0.0, "max_move": 0.0}
     if idx.size == 0:
         return info
     p0 = points[idx].copy()
-    p = p0.copy()
-    step = 1e-6 * h0
-    eye = np.eye(dim) * step
-    d0: Optional[np.ndarray] = None
-    for _ in range(4):
-        batch = np.concatenate([p] + [p + e for e in eye] + [p - e for e in eye])
-        v = grid.call(f, name, batch).reshape(2 * dim + 1, -1)
-        d = v[0]
-        if d0 is None:
-            d0 = d
-        if float(np.abs(d).max()) <= 1e-12 * h0:
-            break
-        g = ((v[1 : dim + 1] - v[dim + 1 :]) / (2 * step)).T
-        g2 = (g * g).sum(axis=1)
-        ok = g2 > 0
-        p[ok] -= (d[ok] / g2[ok])[:, None] * g[ok]
+    p, d0 = _project(grid, f, name, p0, h0)
     after = grid.call(f, name, p)
-    # Keep a vertex where the projection made things worse or would invert a cell.
-    assert d0 is not None
     worse = np.abs(after) > np.abs(d0)
     p[worse] = p0[worse]
     new = points.copy()
     new[idx] = p
     if not surface:
-        sign_before = np.sign(_signed_measure(points, cells))
-        touched = np.zeros(len(points), dtype=bool)
-        touched[idx] = True
-        for _ in range(3):
-            flipped = (np.sign(_signed_measure(new, cells)) != sign_before) & touched[cells].any(axis=1)
-            if not flipped.any():
-                break
-            back = np.unique(cells[flipped])
-            back = back[touched[back]]
-            new[back] = points[back]
+        _keep_orientation(points, new, cells, idx)
     moved = np.linalg.norm(new[idx] - points[idx], axis=1)
     final = grid.call(f, name, new[idx])
     points[idx] = new[idx]
@@ -522,7 +592,7 @@ def mesh_2d(
         sharp_corners=sharp_corners,
         progress=progress,
     )
-    _finish(report, grid, fd, p, t, tags, h0, snap)
+    _finish(report, grid, fd, p, t, tags, h0, snap, pfix)
     return Mesh(p, t, labels, tags, report, "triangle")
 
 
@@ -636,6 +706,7 @@ def _finish(
     tags: np.ndarray,
     h0: float,
     snap: bool,
+    pfix: Optional[np.ndarray] = None,
 ) -> None:
     """Snaps the boundary onto the callable's zero set and records the sampling."""
     if grid is None:
@@ -643,6 +714,7 @@ def _finish(
         return
     if _is_callable_field(fd) and snap and len(t):
         info = _snap(grid, fd, _name(fd, "fd"), p, t, tags, h0)
+        info["corners"] = _corners_2d(grid, fd, _name(fd, "fd"), p, t, tags, pfix, h0) if p.shape[1] == 2 else 0
         report["snap"] = info
         if p.shape[1] == 2:
             report["quality"].update(_quality_2d(p, t))
