@@ -100,6 +100,14 @@ def test_seed_examples_at_the_command_lines_quality(name):
         assert q.min() > 0.7 and q.mean() > 0.96
 
 
+def test_found_corners_are_on_the_callables_corners():
+    # Example 8's two corners where the rectangle meets the circle are found by the mesher on
+    # the sampled function, then moved onto fd's own corners.
+    m = seed.run("ex8")
+    assert m.report["feature_points"] == 2 and m.report["snap"]["corners"] == 2
+    assert np.abs(seed.ex8_fd(m.points[m.boundary])).max() < 1e-9 * 0.02 * 100
+
+
 def test_seed_internal_boundaries_label_subdomains():
     m = seed.run("fig3-5")
     assert set(np.unique(m.labels)) == {0, 1, 2}
@@ -214,6 +222,10 @@ def test_bad_h0_is_a_value_error_with_the_librarys_message():
         tm.mesh_3d(disk, (-1, -1, -1, 1, 1, 1), 0)
     with pytest.raises(ValueError, match="bad bounding box"):
         tm.mesh_2d(disk, (1, 1, -1, -1), 0.1)
+    with pytest.raises(ValueError, match="bad bounding box"):
+        tm.mesh_surface(disk, (1, 1, 1, -1, -1, -1), 0.1)
+    with pytest.raises(ValueError, match="h0 must be positive"):
+        tm.mesh_surface(disk, (-1, -1, -1, 1, 1, 1), float("nan"))
     with pytest.raises(ValueError, match="outside the box"):
         tm.mesh_2d(disk, (-1, -1, 1, 1), 0.1, fixed=[[3.0, 0.0]])
     with pytest.raises(ValueError, match="bad domain expression"):

@@ -675,8 +675,8 @@ def mesh_surface(
     h0 = float(h0)
     lo, hi = _bbox(bbox, 3)
     _check_field(phi, "phi")
-    if not (h0 > 0 and math.isfinite(h0)):
-        # The surface mesher's own check, with its message.
+    if not (h0 > 0 and math.isfinite(h0) and np.isfinite(np.concatenate([lo, hi])).all() and (hi > lo).all()):
+        # Bad input: the surface mesher's own check raises, with its message.
         _core.mesh_surface("1", h0, tuple(np.concatenate([lo, hi])))
     grid = _Grid(lo, hi, h0, grid_spacing) if _is_callable_field(phi) else None
     field = grid.field(phi, _name(phi, "phi")) if grid is not None else phi
