@@ -22,9 +22,12 @@ several threads, so a callable is never called per point. It is called in batche
 2^20 points on a Cartesian grid over the box padded by 2 h0 (spacing h0/4; ``grid_spacing=``
 sets it), before the run, and the mesher interpolates the samples
 (cubic convolution) without the GIL. Afterwards the boundary nodes are projected onto the true
-zero set of the callable, in a few more batched calls (``snap=False`` skips this), and the
-given fixed points are made exact zeros of the interpolant. ``report["sampling"]`` says how
-many points were evaluated in how many calls and how long they took.
+zero set of the callable, in a few more batched calls, and in 2-D the corners the mesher found
+on the samples are moved onto the callable's corners (``snap=False`` skips both); the given
+fixed points keep the callable's exact values in the interpolant. ``report["sampling"]`` says
+how many points were evaluated in how many calls and how long they took, ``report["snap"]``
+how far the boundary moved. The measured cost of calling per point instead: the unit disk at
+h0 = 0.01 asks for d 3.9 million times, 3.5 us each through numpy, 14 s against the 0.7 s run.
 """
 
 from __future__ import annotations
