@@ -73,8 +73,8 @@ pub(super) fn force_loop(
     counts: &mut OpCounts,
 ) -> Result<ForceRun, Error> {
     let mut best = (score(&m, size), m.clone(), 0usize);
-    // The last score that beat the one before it by `step`, and when.
-    let mut marked = (best.0, 0usize);
+    // Progress is a score `step` above the last one that was.
+    let mut plateau = truss::Plateau::since_mark(step, patience, best.0);
     // Largest possible movement of any node since the last flip sweep, relative to h.
     let mut since_flips = 0.0;
     let mut run =
@@ -107,14 +107,12 @@ pub(super) fn force_loop(
         if sc > best.0 {
             best = (sc, m.clone(), it);
         }
-        if sc > marked.0 + step {
-            marked = (sc, it);
-        }
+        let flat = plateau.reached(sc);
         if truss::stop::at_rest(moved, opts.dptol, it, DENSITY_EVERY) {
             run.converged = true;
             break;
         }
-        if it >= marked.1 + patience {
+        if flat {
             run.plateau = true;
             break;
         }
