@@ -1,8 +1,10 @@
 //! The command line: subcommands, errors and exit codes (0 ok, 1 internal failure, 2 bad input).
 
+mod budget;
 mod gallery;
 mod image;
 mod mesh;
+mod output;
 mod remesh;
 mod stats;
 mod surface;

@@ -46,6 +46,7 @@ impl MeshData {
     }
 }
 
+pub mod check;
 mod json;
 mod medit;
 mod msh;
@@ -54,7 +55,8 @@ mod surface;
 mod text;
 mod vtu;
 
-pub use picture::{write_png, write_svg};
+pub use check::{check_mesh, MeshCheck, Problem, ProblemKind};
+pub use picture::{png_bytes, svg_bytes, write_png, write_svg};
 
 use crate::Error;
 use std::collections::HashMap;
@@ -185,7 +187,36 @@ pub fn read_mesh(path: &Path) -> Result<MeshData, Error> {
 pub fn write_mesh(path: &Path, mesh: &MeshData) -> Result<(), Error> {
     let format = Format::from_path(path)?;
     let bytes = write_mesh_bytes(mesh, format)?;
-    std::fs::write(path, bytes).map_err(|e| Error::Io { path: path.display().to_string(), message: e.to_string() })
+    write_file(path, &bytes)
+}
+
+/// Writes `bytes` to `path` whole or not at all: a regular file (or a new one) is written to a
+/// temporary file beside it, flushed and renamed over it, so that a full disk or a killed run
+/// leaves the old file (or none) instead of half a file; anything else that exists already (a
+/// device such as /dev/null, a pipe) is written directly.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    use std::io::Write;
+    let err = |e: std::io::Error| Error::Io { path: path.display().to_string(), message: e.to_string() };
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_dir() => {
+            return Err(Error::Io { path: path.display().to_string(), message: "is a directory".into() })
+        }
+        Ok(m) if !m.is_file() => return std::fs::write(path, bytes).map_err(err),
+        _ => {}
+    }
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.partial", std::process::id()));
+    let written = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = written {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(err(e));
+    }
+    Ok(())
 }
 
 /// Reads a mesh from memory (errors name the source `<memory>`).
