@@ -420,15 +420,16 @@ impl Spec {
                 return Err(Failure::bad(format!(
                     "--bbox is too wide along axis {axis}: from {} to {} is more than the largest number (about \
                      1.8e308); give a box that holds the domain with a margin",
-                    bbox[k],
-                    bbox[k + dim]
+                    sig(bbox[k]),
+                    sig(bbox[k + dim])
                 )));
             }
             if width / h0 > 1e15 {
                 return Err(Failure::bad(format!(
-                    "--bbox is {width:e} wide along axis {axis}, {:.1e} times h0 = {h0:e}: no mesh has that many \
-                     elements across; give a larger --h0 or a smaller box",
-                    width / h0
+                    "--bbox is {} wide along axis {axis}, {} times h0 = {h0:e}: no mesh has that many elements \
+                     across; give a larger --h0 or a smaller box",
+                    sig(width),
+                    sig(width / h0)
                 )));
             }
         }
@@ -680,7 +681,7 @@ impl Job {
             let thick = s.hi[k] - s.lo[k] + s.step[k];
             if thick < self.h0 {
                 return Failure::bad(format!(
-                    "the domain is about {} thick along {}, less than h0 = {}: no {} fits across it; give an --h0 \
+                    "the domain is about {} across along {}, less than h0 = {}: no {} fits across it; give an --h0 \
                      below {}",
                     sig(thick),
                     axes[k],
@@ -694,7 +695,7 @@ impl Job {
             let ratio = s.h_max / s.h_min;
             let extent = (0..self.dim).map(|k| s.hi[k] - s.lo[k] + s.step[k]).fold(0.0f64, f64::max);
             if ratio.is_finite() && self.h0 * ratio > extent / 2.0 {
-                let p = show_point(&s.h_max_at[..self.dim]);
+                let p = show_point(&s.h_max_at[..self.dim].iter().map(|&x| round_sig(x)).collect::<Vec<_>>());
                 return Failure::bad(format!(
                     "--size {:?} grows from {} to {} inside the domain (at {p}): sizes are relative, so the elements \
                      there would be {} x h0 = {} across, more than half the domain ({} across), and the start mesh \
@@ -729,6 +730,11 @@ pub fn sig(x: f64) -> String {
     }
     let digits = if x == 0.0 || !x.is_finite() { 0 } else { (2 - x.abs().log10().floor() as i32).max(0) as usize };
     format!("{x:.digits$}")
+}
+
+/// `x` rounded to three significant digits (0.9950000000000001 becomes 0.995).
+pub fn round_sig(x: f64) -> f64 {
+    sig(x).parse().unwrap_or(x)
 }
 
 /// "(5, 5, 5)": a point as the user wrote it.

@@ -2,7 +2,7 @@
 //! Bézier patches from a JSON file (section 3.6.2), meshed in space.
 
 use super::budget::{self, Budget};
-use super::mesh::{constant, parse_expr, show_point, sig, split_top, whole_number};
+use super::mesh::{constant, parse_expr, round_sig, show_point, sig, split_top, whole_number};
 use super::{output, Failure};
 use clap::Args;
 use glam::DVec3;
@@ -98,7 +98,8 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
         if !(hi[k] - lo[k]).is_finite() {
             return Err(Failure::bad(format!(
                 "--bbox is too wide along axis {axis}: from {} to {} is more than the largest number (about 1.8e308)",
-                lo[k], hi[k]
+                sig(lo[k]),
+                sig(hi[k])
             )));
         }
     }
@@ -353,8 +354,8 @@ impl SurfaceSample {
             sig(span.x),
             sig(span.y),
             sig(span.z),
-            show_point(&self.lo.to_array()),
-            show_point(&self.hi.to_array()),
+            show_point(&self.lo.to_array().map(round_sig)),
+            show_point(&self.hi.to_array().map(round_sig)),
             sig(span.min_element() / 4.0)
         ))
     }

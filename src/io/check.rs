@@ -147,7 +147,9 @@ pub fn check_mesh(m: &MeshData) -> MeshCheck {
     });
     let measure = if m.cell_type == CellType::Tetra { "volume" } else { "area" };
     degenerate.finish(&mut problems, |c| {
-        if c == n {
+        if c == 1 && n == 1 {
+            format!("the only {cell} has zero {measure} (it is flat or its nodes coincide)")
+        } else if c == n {
             format!("every {cell} has zero {measure} (all {c} are flat or their nodes coincide)")
         } else {
             format!("{} zero {measure}", plural(c, &format!("{cell} has"), &format!("{cells} have")))
@@ -159,7 +161,9 @@ pub fn check_mesh(m: &MeshData) -> MeshCheck {
         "clockwise (reversed)"
     };
     reversed.finish(&mut problems, |c| {
-        if c == n {
+        if c == 1 && n == 1 {
+            format!("the only {cell} is {orientation}")
+        } else if c == n {
             format!("every {cell} is {orientation}: the whole mesh is reversed")
         } else {
             format!("{} {orientation}", plural(c, &format!("{cell} is"), &format!("{cells} are")))
@@ -169,13 +173,15 @@ pub fn check_mesh(m: &MeshData) -> MeshCheck {
     // Duplicated cells.
     let mut dup = Found::new(ProblemKind::Duplicate);
     let mut seen: HashMap<Vec<usize>, usize> = HashMap::with_capacity(n);
-    for (i, &s) in skip.iter().enumerate() {
-        if s {
+    for i in 0..n {
+        if skip[i] {
             continue;
         }
         let key = super::sorted(m.cell(i));
         if let Some(&j) = seen.get(&key) {
             dup.add(|| format!("{cell} {i} (nodes {}) repeats {cell} {j}", nodes(m.cell(i))));
+            // The copy is left out of the checks below: it is reported once, here.
+            skip[i] = true;
         } else {
             seen.insert(key, i);
         }

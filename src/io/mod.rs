@@ -204,6 +204,14 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Error> {
         Ok(m) if !m.is_file() => return std::fs::write(path, bytes).map_err(err),
         _ => {}
     }
+    // A link to a file: the file it names is replaced, the link kept.
+    let target;
+    let path = if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+        target = std::fs::canonicalize(path).map_err(err)?;
+        target.as_path()
+    } else {
+        path
+    };
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = path.with_file_name(format!(".{name}.{}.partial", std::process::id()));
     let written = (|| {
