@@ -272,27 +272,10 @@ impl MeshArgs {
         if let Some(path) = &self.scene {
             let text = std::fs::read_to_string(path)
                 .map_err(|e| Failure::bad(format!("cannot read {}: {e}", path.display())))?;
-            let s: SceneFile =
-                toml::from_str(&text).map_err(|e| Failure::bad(format!("bad scene file {}: {e}", path.display())))?;
-            let mut outputs = s.output.unwrap_or_default();
-            outputs.extend(self.output.iter().cloned());
-            return Ok(Spec {
-                dim: s.dim.unwrap_or(2),
-                domain: s.domain,
-                size: s.size,
-                h0: s.h0.text(),
-                bbox: s.bbox.iter().map(Num::text).collect(),
-                fix: s.fix.unwrap_or_default().iter().map(|p| p.iter().map(Num::text).collect()).collect(),
-                max_iter: s.max_iter,
-                seed: s.seed,
-                projection: s.projection,
-                implicit: s.implicit.unwrap_or(false),
-                internal: s.internal,
-                metric: s.metric,
-                sharp: s.sharp.unwrap_or(true),
-                outputs,
-                max_memory: self.max_memory.clone().or(s.max_memory),
-            });
+            let mut spec = scene_spec(&text, &path.display().to_string())?;
+            spec.outputs.extend(self.output.iter().cloned());
+            spec.max_memory = self.max_memory.clone().or(spec.max_memory);
+            return Ok(spec);
         }
         let need = |v: &Option<String>, flag: &str| {
             v.clone().ok_or_else(|| {
@@ -325,6 +308,28 @@ impl MeshArgs {
     }
 }
 
+/// The run a scene file's text describes (`name` names it in errors).
+pub fn scene_spec(text: &str, name: &str) -> Result<Spec, Failure> {
+    let s: SceneFile = toml::from_str(text).map_err(|e| Failure::bad(format!("bad scene file {name}: {e}")))?;
+    Ok(Spec {
+        dim: s.dim.unwrap_or(2),
+        domain: s.domain,
+        size: s.size,
+        h0: s.h0.text(),
+        bbox: s.bbox.iter().map(Num::text).collect(),
+        fix: s.fix.unwrap_or_default().iter().map(|p| p.iter().map(Num::text).collect()).collect(),
+        max_iter: s.max_iter,
+        seed: s.seed,
+        projection: s.projection,
+        implicit: s.implicit.unwrap_or(false),
+        internal: s.internal,
+        metric: s.metric,
+        sharp: s.sharp.unwrap_or(true),
+        outputs: s.output.unwrap_or_default(),
+        max_memory: s.max_memory,
+    })
+}
+
 /// Parses an expression, reporting errors with a caret under the column.
 pub fn parse_expr(what: &str, src: &str) -> Result<Expr, Failure> {
     Expr::parse(src).map_err(|e| Failure::bad(format!("bad {what} expression, {e}\n{}", e.render(src))))
@@ -346,6 +351,12 @@ pub fn constant(what: &str, src: &str) -> Result<f64, Failure> {
 impl Spec {
     /// Checks everything and compiles the expressions.
     pub fn resolve(&self) -> Result<Job, Failure> {
+        self.resolve_with(true)
+    }
+
+    /// [`Spec::resolve`]; with `files` false the outputs' extensions are checked but not the
+    /// file system, and the budget is the fixed fallback (for the fuzz body).
+    pub fn resolve_with(&self, files: bool) -> Result<Job, Failure> {
         let dim = self.dim;
         if dim != 2 && dim != 3 {
             return Err(Failure::bad(format!("--dim must be 2 or 3, not {dim}")));
@@ -442,7 +453,16 @@ impl Spec {
                     p.len()
                 )));
             }
-            fix.push(p.iter().map(|s| constant("a --fix coordinate", s)).collect::<Result<Vec<_>, _>>()?);
+            let q = p.iter().map(|s| constant("a --fix coordinate", s)).collect::<Result<Vec<_>, _>>()?;
+            if (0..dim).any(|k| q[k] < bbox[k] || q[k] > bbox[k + dim]) {
+                return Err(Failure::bad(format!(
+                    "the fixed point {} lies outside the box {} - {} (--bbox)",
+                    show_point(&q),
+                    show_point(&bbox[..dim]),
+                    show_point(&bbox[dim..])
+                )));
+            }
+            fix.push(q);
         }
         if dim == 3 {
             for p in &self.outputs {
@@ -454,8 +474,13 @@ impl Spec {
                 }
             }
         }
-        output::check_all(&self.outputs)?;
-        let budget = Budget::new(self.max_memory.as_deref())?;
+        let budget = if files {
+            output::check_all(&self.outputs)?;
+            Budget::new(self.max_memory.as_deref())?
+        } else {
+            self.outputs.iter().try_for_each(|p| output::check_extension(p))?;
+            Budget { limit: budget::FALLBACK_BYTES, source: "the fuzz body's".into() }
+        };
         Ok(Job {
             dim,
             domain,
@@ -579,6 +604,7 @@ impl Job {
     /// Meshes in 2-D or 3-D, after the checks that need the domain: fixed points inside it,
     /// internal boundaries that cut it, and the memory estimate against the budget.
     pub fn mesh(&self, quiet: bool) -> Result<Meshed, Failure> {
+        self.warn_slow_expressions(quiet);
         self.check_before_meshing()?;
         let result = if self.dim == 3 { mesh3(self, quiet) } else { mesh2(self, quiet) };
         result.map_err(|f| self.diagnose(f))
@@ -602,6 +628,47 @@ impl Job {
             estimated_elements(Survey::Planar(&self.geom2(), &self.options2(None)))
         };
         r.map_err(|e| self.diagnose(e.into()))
+    }
+
+    /// Warns (on stderr) when the expressions are so long that the survey of the box alone
+    /// would take more than ten seconds: each of its samples evaluates them once.
+    fn warn_slow_expressions(&self, quiet: bool) {
+        let b = &self.bbox;
+        let cap = if self.dim == 3 { 96.0 } else { 512.0 };
+        let samples: f64 =
+            (0..self.dim).map(|k| ((b[k + self.dim] - b[k]) / self.h0 + 1.0).ceil().clamp(8.0, cap)).product();
+        let exprs: Vec<(&str, &Expr)> = std::iter::once(("--domain", &self.domain))
+            .chain(self.size.as_ref().map(|e| ("--size", e)))
+            .chain(self.internal.as_ref().map(|e| ("--internal", e)))
+            .collect();
+        let start = Instant::now();
+        let mut reps = 0u32;
+        let mut sink = 0.0;
+        while reps < 64 && (reps < 2 || start.elapsed() < Duration::from_millis(200)) {
+            let t = reps as f64 / 64.0;
+            for (_, e) in &exprs {
+                sink += e.eval(b[0] + t * (b[self.dim] - b[0]), b[1] + t * (b[self.dim + 1] - b[1]), 0.0);
+            }
+            reps += 1;
+        }
+        let per = start.elapsed().as_secs_f64() / reps as f64;
+        let survey = per * samples;
+        if survey > 10.0 && !quiet {
+            std::hint::black_box(sink);
+            let ops: usize = exprs.iter().map(|(_, e)| e.ops()).sum();
+            let names: Vec<&str> = exprs.iter().map(|(n, _)| *n).collect();
+            eprintln!(
+                "warning: one evaluation of {} takes about {} ms ({} operations, {} of source); the survey of the box \
+                 alone evaluates it {} times (about {} minutes), and meshing many times more; shorten the expression or \
+                 use a larger --h0",
+                names.join(" and "),
+                sig(per * 1e3),
+                budget::count(ops as f64),
+                budget::human(exprs.iter().map(|(_, e)| e.source().len() as f64).sum()),
+                budget::count(samples),
+                sig(survey / 60.0)
+            );
+        }
     }
 
     fn check_before_meshing(&self) -> Result<(), Failure> {

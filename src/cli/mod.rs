@@ -1,6 +1,7 @@
 //! The command line: subcommands, errors and exit codes (0 ok, 1 internal failure, 2 bad input).
 
 mod budget;
+pub mod fuzz;
 mod gallery;
 mod image;
 mod mesh;
