@@ -360,19 +360,26 @@ pub fn mesh_image_checked(
     let dist = image_distance(grey, w, h, opts.threshold, opts.invert)?;
     let lo = DVec2::new(-1.0, -1.0);
     let hi = DVec2::new(w as f64 + 1.0, h as f64 + 1.0);
-    let params = SizeParams {
-        k: 0.5 / opts.h0,
-        r: 2.0,
-        g: 0.3,
-        hmin: opts.h0,
-        hmax: opts.h0 * opts.max_ratio,
-        ..SizeParams::default()
+    // A ratio of 1 asks for uniform elements: no size function to build.
+    let size = if opts.max_ratio > 1.0 {
+        let params = SizeParams {
+            k: 0.5 / opts.h0,
+            r: 2.0,
+            g: 0.3,
+            hmin: opts.h0,
+            hmax: opts.h0 * opts.max_ratio,
+            ..SizeParams::default()
+        };
+        Some(auto_size_2d(&dist, [lo, hi], 1.0, &params)?)
+    } else {
+        None
     };
-    let size = auto_size_2d(&dist, [lo, hi], 1.0, &params)?;
     let s = opts.scale;
     let domain = Scaled { g: &dist, s };
     let mut o = Options2::uniform(opts.h0 * s, [lo.x * s, lo.y * s], [hi.x * s, hi.y * s]);
-    o = o.with_size(move |p| size.value(p / s));
+    if let Some(size) = size {
+        o = o.with_size(move |p| size.value(p / s));
+    }
     check(super::estimated_elements(super::Survey::Planar(&domain, &o))?)?;
     mesh_2d(&domain, &o)
 }
