@@ -435,9 +435,16 @@ fn pictures_that_cannot_be_meshed_are_named_for_what_they_are() {
         (
             "disc.png",
             vec!["--threshold", "0"],
-            vec!["the threshold 0 must lie strictly between 0 and 1", "no pixel is darker than 0"],
+            vec![
+                "the threshold 0 must lie strictly between 0 and 1",
+                "no pixel is darker than 0, so nothing lies outside",
+            ],
         ),
-        ("disc.png", vec!["--threshold", "1"], vec!["the threshold 1 must lie strictly between 0 and 1"]),
+        (
+            "disc.png",
+            vec!["--threshold", "1"],
+            vec!["the threshold 1 must lie strictly between 0 and 1", "the mask would be empty"],
+        ),
     ] {
         let mut args = vec!["image", file];
         args.extend(extra);

@@ -73,7 +73,7 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
     let budget = Budget::new(args.max_memory.as_deref())?;
     let h0 = constant("h0", &args.h0)?;
     if h0 <= 0.0 {
-        return Err(Failure::bad(format!("h0 must be positive, got {h0} ({})", args.h0.trim())));
+        return Err(Failure::bad(format!("h0 = {h0} must be positive (--h0 {})", args.h0.trim())));
     }
     if let Some(path) = &args.bezier {
         return run_bezier(path, h0, &args, &budget);

@@ -162,10 +162,14 @@ pub fn image_distance(grey: &[f64], w: usize, h: usize, threshold: f64, invert: 
         )));
     }
     if !(threshold > 0.0 && threshold < 1.0) {
+        let why = if threshold >= 1.0 {
+            format!("no pixel is brighter than {threshold}, so the mask would be empty (or, with --invert, all)")
+        } else {
+            format!("no pixel is darker than {threshold}, so nothing lies outside (or, with --invert, inside)")
+        };
         return Err(Error::Invalid(format!(
             "the threshold {threshold} must lie strictly between 0 and 1: grey levels run from 0 (black) to 1 \
-             (white), so no pixel is {} than {threshold} and nothing separates inside from outside",
-            if threshold <= 0.0 { "darker" } else { "brighter" }
+             (white), and {why}"
         )));
     }
     if let Some(v) = grey.iter().find(|v| !(0.0..=1.0).contains(*v)) {
@@ -177,7 +181,7 @@ pub fn image_distance(grey: &[f64], w: usize, h: usize, threshold: f64, invert: 
     if raw_inside == 0 {
         return Err(Error::EmptyDomain(format!(
             "no pixel of the picture is {side} than the threshold {threshold} (its grey levels run from {lo_g:.3} to \
-             {hi_g:.3}); choose a threshold inside that range{}",
+             {hi_g:.3}): the mask is empty; choose a threshold inside that range{}",
             if invert { "" } else { ", or --invert to mesh the dark part" }
         )));
     }
