@@ -202,6 +202,23 @@ fn the_png_writer_of_these_tests_makes_pictures_the_library_reads() {
     assert!(lying_png().len() < 100);
 }
 
+#[test]
+fn the_png_seed_corpus_replays_through_the_fuzz_body() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/png");
+    let mut n = 0;
+    for e in std::fs::read_dir(dir).unwrap() {
+        let bytes = std::fs::read(e.unwrap().path()).unwrap();
+        trussmesh::mesher::image::fuzz_decode_png(&bytes);
+        n += 1;
+    }
+    assert!(n >= 3);
+    // Cut short anywhere, the pictures still decode or fail cleanly.
+    let disc = png(30, 30, disc(30));
+    for k in 0..disc.len() {
+        trussmesh::mesher::image::fuzz_decode_png(&disc[..k]);
+    }
+}
+
 // ---------------------------------------------------------------- outputs
 
 #[test]
@@ -874,4 +891,93 @@ fn a_long_expression_is_parsed_in_linear_time_and_its_cost_is_named() {
     assert!(r.stderr.contains("warning: one evaluation of --domain takes about"), "{}", r.stderr);
     assert!(r.stderr.contains("the survey of the box alone evaluates it 2.62e5 times"), "{}", r.stderr);
     assert!(r.seconds < 10.0, "took {} s", r.seconds);
+}
+
+// ---------------------------------------------------------------- the table of docs/cli.md
+
+/// Splits a command into words (single quotes, no expansion).
+fn words(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut cur = String::new();
+    let (mut quoted, mut any) = (false, false);
+    for c in line.chars() {
+        match c {
+            '\'' => {
+                quoted = !quoted;
+                any = true;
+            }
+            c if c.is_whitespace() && !quoted => {
+                if any {
+                    out.push(std::mem::take(&mut cur));
+                    any = false;
+                }
+            }
+            c => {
+                cur.push(c);
+                any = true;
+            }
+        }
+    }
+    if any {
+        out.push(cur);
+    }
+    out
+}
+
+/// The files the table's examples name.
+fn table_fixtures(d: &Path) {
+    std::fs::write(d.join("plain.txt"), "not a picture").unwrap();
+    std::os::unix::fs::symlink("/dev/full", d.join("full.msh")).unwrap();
+    std::fs::write(d.join("liar.png"), lying_png()).unwrap();
+    std::fs::write(d.join("white.png"), png(10_000, 10_000, |_, _| 255)).unwrap();
+    std::fs::write(d.join("grey.png"), png(100, 100, |_, _| 128)).unwrap();
+    std::fs::write(d.join("checker.png"), png(100, 100, |i, j| if (i + j) % 2 == 0 { 0 } else { 255 })).unwrap();
+    std::fs::write(d.join("dot.png"), png(100, 100, |i, j| if i == 50 && j == 50 { 255 } else { 0 })).unwrap();
+    std::fs::write(d.join("disc.png"), png(120, 120, disc(120))).unwrap();
+    for (name, h0) in [("nan", "nan"), ("array", "[0.1]")] {
+        std::fs::write(
+            d.join(format!("{name}.toml")),
+            format!("domain = \"{CIRCLE}\"\nh0 = {h0}\nbbox = [-1, -1, 1, 1]\noutput = [\"a.vtu\"]\n"),
+        )
+        .unwrap();
+    }
+    let square = "[[0,0],[1,0],[1,1],[0,1]]";
+    mesh_json(d, "good", 2, "triangle", square, "[[0,1,2],[0,2,3]]");
+    mesh_json(d, "one_reversed", 2, "triangle", square, "[[0,2,1],[0,2,3]]");
+    mesh_json(d, "all_reversed", 2, "triangle", square, "[[0,2,1],[0,3,2]]");
+    mesh_json(d, "duplicate", 2, "triangle", square, "[[0,1,2],[0,2,3],[2,3,0]]");
+    mesh_json(d, "overlap", 2, "triangle", "[[0,0],[1,0],[0,1],[0.2,0.2],[2,0.2],[0.2,2]]", "[[0,1,2],[3,4,5]]");
+    mesh_json(d, "fin", 2, "triangle", "[[0,0],[1,0],[0.5,1],[0.5,-1],[0.6,2]]", "[[0,1,2],[1,0,3],[0,1,4]]");
+    mesh_json(d, "bowtie", 2, "triangle", "[[0,0],[1,0],[1,1],[-1,0],[-1,-1]]", "[[0,1,2],[0,3,4]]");
+    mesh_json(d, "negative_tet", 3, "tetra", "[[0,0,0],[1,0,0],[0,1,0],[0,0,1]]", "[[0,2,1,3]]");
+    mesh_json(d, "all_equal", 2, "triangle", "[[0.5,0.5],[0.5,0.5],[0.5,0.5]]", "[[0,1,2]]");
+}
+
+#[test]
+fn the_table_of_bad_input_in_docs_cli_md_is_what_the_program_does() {
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/cli.md")).unwrap();
+    let section = text.split("## Bad input: exit codes and messages").nth(1).expect("the section");
+    let rows: Vec<&str> = section.lines().filter(|l| l.starts_with("| ") && l.contains("| `trussmesh ")).collect();
+    assert!(rows.len() >= 40, "only {} rows", rows.len());
+    let d = tmp("docs_table");
+    table_fixtures(&d);
+    for row in rows {
+        let cols: Vec<&str> = row.trim_matches('|').split(" | ").map(str::trim).collect();
+        assert_eq!(cols.len(), 4, "{row}");
+        let command = cols[1].split('`').nth(1).unwrap();
+        let argv = words(command);
+        assert_eq!(argv[0], "trussmesh", "{row}");
+        let args: Vec<&str> = argv[1..].iter().map(String::as_str).collect();
+        let code: i32 = cols[2].parse().unwrap();
+        let r = run(&d, &args);
+        assert_eq!(r.code, code, "{command}: exit {} (the table says {code})\n{}", r.code, r.stderr);
+        let mut at = 0;
+        for piece in cols[3].split("...").filter(|p| !p.is_empty()) {
+            let found = r.stderr[at..]
+                .find(piece)
+                .unwrap_or_else(|| panic!("{command}: the message lacks {piece:?} (after byte {at}):\n{}", r.stderr));
+            at += found + piece.len();
+        }
+        assert!(r.seconds < 30.0, "{command}: {} s", r.seconds);
+    }
 }

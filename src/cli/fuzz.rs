@@ -63,4 +63,17 @@ mod tests {
         }
         fuzz_scene(&[0xff, 0xfe]);
     }
+
+    #[test]
+    fn the_seed_corpora_replay() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus");
+        for (dir, body) in [("cli_args", fuzz_args as fn(&[u8])), ("scene", fuzz_scene)] {
+            let mut n = 0;
+            for e in std::fs::read_dir(root.join(dir)).unwrap() {
+                body(&std::fs::read(e.unwrap().path()).unwrap());
+                n += 1;
+            }
+            assert!(n >= 3, "{dir}: {n} files");
+        }
+    }
 }

@@ -142,6 +142,16 @@ fn png_header_bytes(h: PngHeader) -> Vec<u8> {
 /// Fuzz body: decoding any bytes returns (a picture or an error) without panicking or
 /// allocating for pixels the header only claims.
 pub fn fuzz_decode_png(data: &[u8]) {
+    // The refusal past MAX_PIXELS is checked without decoding; below it, pictures up to 2^22
+    // pixels are decoded (a larger claim would only spend the fuzzer's memory limit).
+    match png_header(data, "<fuzz>") {
+        Ok(head) if head.pixels() > MAX_PIXELS => {
+            assert!(decode_png_grey(data, "<fuzz>").is_err());
+            return;
+        }
+        Ok(head) if head.pixels() > 1 << 22 => return,
+        _ => {}
+    }
     if let Ok((grey, w, h)) = decode_png_grey(data, "<fuzz>") {
         assert_eq!(grey.len(), w * h);
         assert!(grey.iter().all(|g| (0.0..=1.0).contains(g)));
