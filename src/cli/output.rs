@@ -46,8 +46,13 @@ pub fn check_writable(p: &Path) -> Result<(), Failure> {
         if m.is_dir() {
             return Err(fail("it is a directory".into()));
         }
-        // An existing file (or device) must open for writing; it is not truncated here.
-        return std::fs::OpenOptions::new().write(true).open(p).map(|_| ()).map_err(|e| fail(e.to_string()));
+        if !m.is_file() {
+            // A device or a pipe: opening a pipe would wait for a reader; it is written later.
+            return Ok(());
+        }
+        // An existing file must open for writing (it is not truncated here), and its directory
+        // must take the temporary file that replaces it.
+        std::fs::OpenOptions::new().write(true).open(p).map_err(|e| fail(e.to_string()))?;
     }
     let parent = match p.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),

@@ -170,51 +170,85 @@ pub fn check_mesh(m: &MeshData) -> MeshCheck {
         }
     });
 
-    // Duplicated cells.
+    // Duplicated cells: equal sorted node lists, found by sorting.
+    let key_of = |c: &[usize]| {
+        let mut k = [usize::MAX; 4];
+        k[..c.len()].copy_from_slice(c);
+        k[..c.len()].sort_unstable();
+        k
+    };
     let mut dup = Found::new(ProblemKind::Duplicate);
-    let mut seen: HashMap<Vec<usize>, usize> = HashMap::with_capacity(n);
-    for i in 0..n {
-        if skip[i] {
-            continue;
-        }
-        let key = super::sorted(m.cell(i));
-        if let Some(&j) = seen.get(&key) {
+    let mut order: Vec<([usize; 4], usize)> = (0..n).filter(|&i| !skip[i]).map(|i| (key_of(m.cell(i)), i)).collect();
+    order.sort_unstable();
+    for w in order.windows(2) {
+        if w[0].0 == w[1].0 {
+            let (j, i) = (w[0].1, w[1].1);
             dup.add(|| format!("{cell} {i} (nodes {}) repeats {cell} {j}", nodes(m.cell(i))));
             // The copy is left out of the checks below: it is reported once, here.
             skip[i] = true;
-        } else {
-            seen.insert(key, i);
         }
     }
-    drop(seen);
+    drop(order);
     dup.finish(&mut problems, |c| plural(c, &format!("{cell} is given twice"), &format!("{cells} are given twice")));
 
-    // Facets: how many cells each bounds, and in which directions.
+    // Facets: how many cells each bounds, and in which directions (sorted, then grouped).
     let facet_name = if m.cell_type == CellType::Tetra { "face" } else { "edge" };
-    let mut facets: HashMap<Vec<usize>, Vec<(usize, bool)>> = HashMap::with_capacity(2 * n);
+    let mut facets: Vec<([usize; 3], usize, bool)> = Vec::with_capacity((k) * n);
     for (i, &s) in skip.iter().enumerate() {
         if s {
             continue;
         }
-        for f in super::cell_facets(m.cell_type, m.cell(i)) {
-            let key = super::sorted(&f);
-            facets.entry(key).or_default().push((i, even_permutation(&f)));
+        let c = m.cell(i);
+        let mut add = |f: &[usize]| {
+            let mut key = [usize::MAX; 3];
+            key[..f.len()].copy_from_slice(f);
+            key[..f.len()].sort_unstable();
+            facets.push((key, i, even_permutation(f)));
+        };
+        // The facets of `cell_facets`, oriented outward, without allocating.
+        match m.cell_type {
+            CellType::Triangle => {
+                add(&[c[0], c[1]]);
+                add(&[c[1], c[2]]);
+                add(&[c[2], c[0]]);
+            }
+            CellType::Tetra => {
+                add(&[c[1], c[2], c[3]]);
+                add(&[c[0], c[3], c[2]]);
+                add(&[c[0], c[1], c[3]]);
+                add(&[c[0], c[2], c[1]]);
+            }
         }
     }
+    facets.sort_unstable();
     let mut fin = Found::new(ProblemKind::NonManifoldFacet);
     let mut inconsistent = Found::new(ProblemKind::InconsistentOrientation);
-    let mut keys: Vec<&Vec<usize>> = facets.keys().collect();
-    keys.sort_unstable();
-    for key in keys {
-        let users = &facets[key];
-        if users.len() > 2 {
-            let list = users.iter().map(|u| u.0.to_string()).collect::<Vec<_>>().join(", ");
-            fin.add(|| format!("{facet_name} ({}) bounds {cells} {list}", nodes(key)));
-        } else if users.len() == 2 && users[0].1 == users[1].1 {
-            inconsistent
-                .add(|| format!("{cells} {} and {} share {facet_name} ({})", users[0].0, users[1].0, nodes(key)));
+    let shown = |key: &[usize; 3]| nodes(&key.iter().copied().filter(|&v| v != usize::MAX).collect::<Vec<_>>());
+    // Pairs of cells joined through a facet, for the fans below.
+    let mut joined: Vec<(usize, usize, [usize; 3])> = Vec::new();
+    let mut g = 0;
+    while g < facets.len() {
+        let mut e = g + 1;
+        while e < facets.len() && facets[e].0 == facets[g].0 {
+            e += 1;
         }
+        let users = &facets[g..e];
+        let key = &users[0].0;
+        if users.len() > 2 {
+            let list = users.iter().map(|u| u.1.to_string()).collect::<Vec<_>>().join(", ");
+            fin.add(|| format!("{facet_name} ({}) bounds {cells} {list}", shown(key)));
+        } else if users.len() == 2 && users[0].2 == users[1].2 {
+            inconsistent
+                .add(|| format!("{cells} {} and {} share {facet_name} ({})", users[0].1, users[1].1, shown(key)));
+        }
+        for x in 0..users.len() {
+            for y in x + 1..users.len() {
+                joined.push((users[x].1, users[y].1, *key));
+            }
+        }
+        g = e;
     }
+    drop(facets);
     fin.finish(&mut problems, |c| {
         format!(
             "{} more than two {cells} (a fin)",
@@ -229,10 +263,10 @@ pub fn check_mesh(m: &MeshData) -> MeshCheck {
         )
     });
 
-    // Bowties: the triangles around a vertex must form one fan (edges joined through the
-    // vertex's neighbours); in 3-D the tets around a vertex, joined through faces.
+    // Bowties: the cells around a node must form one fan, joined through facets that hold
+    // the node.
     let mut bowtie = Found::new(ProblemKind::NonManifoldVertex);
-    for (v, comps) in vertex_fans(m, &skip) {
+    for (v, comps) in vertex_fans(m, &skip, &joined) {
         bowtie.add(|| format!("node {v} joins {comps} separate fans of {cells}"));
     }
     bowtie.finish(&mut problems, |c| {
@@ -266,61 +300,52 @@ fn even_permutation(f: &[usize]) -> bool {
     inversions % 2 == 0
 }
 
-/// Vertices whose cells form more than one connected fan, with the number of fans.
-fn vertex_fans(m: &MeshData, skip: &[bool]) -> Vec<(usize, usize)> {
+/// Vertices whose cells form more than one connected fan, with the number of fans. `joined`
+/// lists the pairs of cells that share a facet, with the facet's nodes.
+fn vertex_fans(m: &MeshData, skip: &[bool], joined: &[(usize, usize, [usize; 3])]) -> Vec<(usize, usize)> {
     let np = m.points.len();
-    let mut around: Vec<Vec<usize>> = vec![Vec::new(); np];
+    // The (node, cell) incidences, grouped by node (CSR).
+    let mut start = vec![0usize; np + 1];
     for (i, &s) in skip.iter().enumerate() {
         if !s {
             for &v in m.cell(i) {
-                around[v].push(i);
+                start[v + 1] += 1;
             }
         }
     }
+    for v in 0..np {
+        start[v + 1] += start[v];
+    }
+    let mut fill = start.clone();
+    let mut cell_of = vec![0usize; start[np]];
+    for (i, &s) in skip.iter().enumerate() {
+        if !s {
+            for &v in m.cell(i) {
+                cell_of[fill[v]] = i;
+                fill[v] += 1;
+            }
+        }
+    }
+    let slot = |v: usize, c: usize| start[v] + cell_of[start[v]..start[v + 1]].iter().position(|&x| x == c).unwrap();
+    let mut parent: Vec<usize> = (0..cell_of.len()).collect();
+    fn find(p: &mut [usize], mut x: usize) -> usize {
+        while p[x] != x {
+            p[x] = p[p[x]];
+            x = p[x];
+        }
+        x
+    }
+    for &(a, b, key) in joined {
+        for &v in key.iter().filter(|&&v| v != usize::MAX) {
+            let (ra, rb) = (find(&mut parent, slot(v, a)), find(&mut parent, slot(v, b)));
+            parent[ra] = rb;
+        }
+    }
     let mut out = Vec::new();
-    for (v, cs) in around.iter().enumerate() {
-        if cs.len() < 2 {
-            continue;
-        }
-        // Two cells around v are joined when they share a facet through v: in 2-D one more
-        // node, in 3-D two more.
-        let need = m.cell_type.nodes() - 2;
-        let mut parent: Vec<usize> = (0..cs.len()).collect();
-        fn find(p: &mut [usize], mut x: usize) -> usize {
-            while p[x] != x {
-                p[x] = p[p[x]];
-                x = p[x];
-            }
-            x
-        }
-        let mut by_facet: HashMap<Vec<usize>, usize> = HashMap::new();
-        for (a, &c) in cs.iter().enumerate() {
-            let others: Vec<usize> = m.cell(c).iter().copied().filter(|&w| w != v).collect();
-            let mut keys = Vec::new();
-            if need == 1 {
-                keys.extend(others.iter().map(|&w| vec![w]));
-            } else {
-                for x in 0..others.len() {
-                    for y in x + 1..others.len() {
-                        keys.push(super::sorted(&[others[x], others[y]]));
-                    }
-                }
-            }
-            for key in keys {
-                match by_facet.get(&key) {
-                    Some(&b) => {
-                        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-                        parent[ra] = rb;
-                    }
-                    None => {
-                        by_facet.insert(key, a);
-                    }
-                }
-            }
-        }
-        let roots = (0..cs.len()).filter(|&a| find(&mut parent, a) == a).count();
-        if roots > 1 {
-            out.push((v, roots));
+    for v in 0..np {
+        let fans = (start[v]..start[v + 1]).filter(|&x| find(&mut parent, x) == x).count();
+        if fans > 1 {
+            out.push((v, fans));
         }
     }
     out
@@ -351,11 +376,11 @@ fn overlapping_pairs(m: &MeshData, skip: &[bool]) -> Vec<(usize, usize)> {
     let dims: Vec<usize> = (0..dim).map(|k| ((span[k] / cell).floor() as usize + 1).min(1 << 20)).collect();
     let bucket = |p: DVec3, k: usize| (((p[k] - lo[k]) / cell).floor().max(0.0) as usize).min(dims[k] - 1);
     let mut buckets: HashMap<[usize; 3], Vec<usize>> = HashMap::new();
-    let mut boxes = HashMap::with_capacity(live.len());
+    let mut boxes = vec![(DVec3::ZERO, DVec3::ZERO); m.num_cells()];
     for &i in &live {
         let c = corners(i);
         let (a, b) = c.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(a, b), p| (a.min(*p), b.max(*p)));
-        boxes.insert(i, (a, b));
+        boxes[i] = (a, b);
         let (ia, ib): (Vec<usize>, Vec<usize>) = (0..dim).map(|k| (bucket(a, k), bucket(b, k))).unzip();
         let z = if dim == 3 { ia[2]..=ib[2] } else { 0..=0 };
         for bz in z {
@@ -373,7 +398,7 @@ fn overlapping_pairs(m: &MeshData, skip: &[bool]) -> Vec<(usize, usize)> {
         let list = &buckets[key];
         for (x, &a) in list.iter().enumerate() {
             for &b in &list[x + 1..] {
-                let (pa, pb) = (boxes[&a], boxes[&b]);
+                let (pa, pb) = (boxes[a], boxes[b]);
                 // Each pair once: in the bucket of the lower corner of the boxes' intersection.
                 let low = pa.0.max(pb.0);
                 if (0..dim).any(|k| bucket(low, k) != key[k]) {

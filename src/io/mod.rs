@@ -149,13 +149,19 @@ impl MeshData {
     /// Facets (edges of triangles, faces of tets) that belong to one cell only, oriented
     /// outward from that cell, in order of first appearance: the boundary files record.
     pub fn boundary_facets(&self) -> Vec<Vec<usize>> {
+        let key = |f: &[usize]| {
+            let mut k = [usize::MAX; 3];
+            k[..f.len()].copy_from_slice(f);
+            k[..f.len()].sort_unstable();
+            k
+        };
         let faces: Vec<Vec<usize>> =
             (0..self.num_cells()).flat_map(|i| cell_facets(self.cell_type, self.cell(i))).collect();
-        let mut count: HashMap<Vec<usize>, u32> = HashMap::with_capacity(faces.len());
+        let mut count: HashMap<[usize; 3], u32> = HashMap::with_capacity(faces.len());
         for f in &faces {
-            *count.entry(sorted(f)).or_insert(0) += 1;
+            *count.entry(key(f)).or_insert(0) += 1;
         }
-        faces.into_iter().filter(|f| count[&sorted(f)] == 1).collect()
+        faces.into_iter().filter(|f| count[&key(f)] == 1).collect()
     }
 }
 
