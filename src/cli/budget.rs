@@ -86,7 +86,7 @@ pub fn parse_bytes(text: &str) -> Result<u64, String> {
         _ => return Err(bad()),
     };
     let bytes = v * scale;
-    if !(bytes.is_finite() && bytes >= 1.0 && bytes < 1.8e19) {
+    if !(1.0..1.8e19).contains(&bytes) {
         return Err(format!("--max-memory {text:?} must be at least one byte and below 18 EB"));
     }
     Ok(bytes as u64)

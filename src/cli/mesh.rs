@@ -675,7 +675,7 @@ impl Job {
         // Fixed points must lie in the closed domain (d <= 0 up to rounding).
         for p in &self.fix {
             let d = self.domain.eval(p[0], p[1], p.get(2).copied().unwrap_or(0.0));
-            if !(d <= 1e-2 * self.h0) {
+            if d.is_nan() || d > 1e-2 * self.h0 {
                 return Err(Failure::bad(format!(
                     "the fixed point {} lies outside the domain (d = {d:.4} there); fixed points must be inside it \
                      or on its boundary",
@@ -847,7 +847,8 @@ impl DomainSample {
                     if dim == 3 {
                         p[2] = b[2] + step[2] * kz as f64;
                     }
-                    if !(job.domain.eval(p[0], p[1], p[2]) < 0.0) {
+                    let d = job.domain.eval(p[0], p[1], p[2]);
+                    if d.is_nan() || d >= 0.0 {
                         continue;
                     }
                     s.inside += 1;

@@ -89,7 +89,7 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
     let (lo, hi) = (DVec3::new(corners[0], corners[1], corners[2]), DVec3::new(corners[3], corners[4], corners[5]));
     for k in 0..3 {
         let axis = ["x", "y", "z"][k];
-        if !(lo[k] < hi[k]) {
+        if lo[k].is_nan() || hi[k].is_nan() || lo[k] >= hi[k] {
             return Err(Failure::bad(format!(
                 "--bbox is empty along axis {axis}: min {} >= max {} (order: X0,Y0,Z0,X1,Y1,Z1)",
                 lo[k], hi[k]

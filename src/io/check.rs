@@ -451,7 +451,7 @@ fn cells_overlap(a: &[DVec3], b: &[DVec3], dim: usize) -> bool {
     let scale = a.iter().chain(b).fold(0.0f64, |s, p| s.max(p.abs().max_element())).max(1e-300);
     for axis in axes {
         let len = axis.length();
-        if !(len > 1e-12 * scale * scale) {
+        if len.is_nan() || len <= 1e-12 * scale * scale {
             continue;
         }
         let u = axis / len;

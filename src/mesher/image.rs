@@ -171,7 +171,7 @@ pub fn image_distance(grey: &[f64], w: usize, h: usize, threshold: f64, invert: 
             grey.len()
         )));
     }
-    if !(threshold > 0.0 && threshold < 1.0) {
+    if threshold.is_nan() || threshold <= 0.0 || threshold >= 1.0 {
         let why = if threshold >= 1.0 {
             format!("no pixel is brighter than {threshold}, so the mask would be empty (or, with --invert, all)")
         } else {
