@@ -34,13 +34,17 @@ pub enum Error {
     #[error("bad bounding box: {0}")]
     BadBox(String),
     /// The estimated element count passes the configured limit.
-    #[error("about {estimated} elements would be made, past the limit of {limit}")]
+    #[error("about {} elements would be made, past the limit of {limit}", count_text(*estimated))]
     TooManyElements {
         /// Estimated count.
         estimated: u64,
         /// The configured limit.
         limit: u64,
     },
+    /// The work would need more memory than the budget allows (the message gives the
+    /// estimate, the budget and what to change).
+    #[error("{0}")]
+    OverBudget(String),
     /// Input arrays that do not describe a valid mesh.
     #[error("invalid mesh input: {0}")]
     InvalidMesh(String),
@@ -74,6 +78,18 @@ pub enum Error {
         /// The broken mesh invariant, when a validation found it.
         violation: Option<InvariantViolation>,
     },
+}
+
+/// An element count as people read it: exact below 10^5, "1.23e7" above, and "more than
+/// 1.8e19" for an estimate that saturated the counter (an h0 of 1e-300 does that).
+fn count_text(n: u64) -> String {
+    if n == u64::MAX {
+        "more than 1.8e19".into()
+    } else if n < 100_000 {
+        n.to_string()
+    } else {
+        format!("{:.2e}", n as f64)
+    }
 }
 
 impl Error {

@@ -60,7 +60,7 @@ fn unreadable_image_is_an_io_error() {
     let path = dir.join("garbage.png");
     std::fs::write(&path, b"this is not a png").unwrap();
     match read_png_grey(&path) {
-        Err(Error::Io { message, .. }) => assert!(message.contains("PNG"), "{message}"),
+        Err(Error::Parse { message, .. }) => assert!(message.contains("not a PNG picture"), "{message}"),
         other => panic!("{other:?}"),
     }
     assert!(matches!(read_png_grey(&dir.join("missing.png")), Err(Error::Io { .. })));

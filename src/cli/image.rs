@@ -1,11 +1,11 @@
 //! `trussmesh image`: mesh the bright (or, with --invert, dark) region of a PNG picture.
 
-use super::mesh::write_output;
-use super::Failure;
+use super::budget::{self, Budget};
+use super::{output, Failure};
 use clap::Args;
 use std::path::PathBuf;
 use trussmesh::io::MeshData;
-use trussmesh::mesher::image::{mesh_image, read_png_grey, ImageOptions};
+use trussmesh::mesher::image::{decode_png_grey, mesh_image_checked, read_png_header, ImageOptions};
 
 /// Arguments of `trussmesh image`.
 #[derive(Args, Debug)]
@@ -30,6 +30,10 @@ pub struct ImageArgs {
     /// Output files; the extension picks the format (.vtu .msh .mesh .json .obj .stl .ply .svg .png).
     #[arg(short = 'o', long = "output", required = true)]
     pub outputs: Vec<PathBuf>,
+    /// Memory budget (such as 2G or 500M; default a quarter of the machine's memory): a
+    /// picture or a mesh whose estimate passes it is refused before the work.
+    #[arg(long, value_name = "BYTES")]
+    pub max_memory: Option<String>,
     /// No report on stdout.
     #[arg(short, long)]
     pub quiet: bool,
@@ -37,21 +41,42 @@ pub struct ImageArgs {
 
 /// Runs `trussmesh image`.
 pub fn run(a: ImageArgs) -> Result<(), Failure> {
-    for p in &a.outputs {
-        trussmesh::io::Format::from_path(p).map(|_| ()).or_else(|e| match p.extension().and_then(|x| x.to_str()) {
-            Some("svg") | Some("png") => Ok(()),
-            _ => Err(e),
-        })?;
-    }
-    let (grey, w, h) = read_png_grey(&a.file).map_err(|e| Failure::bad(e.to_string()))?;
+    output::check_all(&a.outputs)?;
+    let budget = Budget::new(a.max_memory.as_deref())?;
+    let name = a.file.display().to_string();
+    // The header's size is checked before the picture is read or decoded.
+    let head = read_png_header(&a.file)?;
+    let pixels = head.pixels() as f64;
+    let pixel_bytes = budget::BASE_BYTES + pixels * budget::BYTES_PER_PIXEL;
+    budget.check(
+        &format!("the picture {name}, {} x {} pixels,", head.width, head.height),
+        pixel_bytes,
+        &format!("{} pixels at about {} bytes each", budget::count(pixels), budget::BYTES_PER_PIXEL),
+        "use a smaller picture",
+    )?;
+    let bytes = std::fs::read(&a.file).map_err(|e| Failure::bad(format!("cannot read the picture {name}: {e}")))?;
+    let (grey, w, h) = decode_png_grey(&bytes, &name)?;
+    drop(bytes);
     let opts =
         ImageOptions { threshold: a.threshold, invert: a.invert, h0: a.h0, max_ratio: a.max_ratio, scale: a.scale };
-    let out = mesh_image(&grey, w, h, &opts)?;
+    let check = |triangles: f64| {
+        budget
+            .check(
+                &format!("the mesh of {name}"),
+                pixel_bytes + triangles * budget::BYTES_PER_TRIANGLE_2D,
+                &format!(
+                    "{} triangles at about {} bytes each, and the picture's {}",
+                    budget::count(triangles),
+                    budget::BYTES_PER_TRIANGLE_2D,
+                    budget::human(pixel_bytes)
+                ),
+                "use a larger --h0",
+            )
+            .map_err(|f| trussmesh::Error::OverBudget(f.message))
+    };
+    let out = mesh_image_checked(&grey, w, h, &opts, &check)?;
     let data = MeshData::from_trimesh2(&out.mesh);
-    let title = a.file.display().to_string();
-    for p in &a.outputs {
-        write_output(p, &data, &title)?;
-    }
+    output::write_all(&a.outputs, &data, &name)?;
     if !a.quiet {
         println!("{}", out.report);
         for p in &a.outputs {

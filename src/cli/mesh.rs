@@ -1,6 +1,7 @@
 //! `trussmesh mesh`: flags or a TOML scene in, mesh files and pictures out.
 
-use super::Failure;
+use super::budget::{self, Budget};
+use super::{output, Failure};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Deserialize;
@@ -10,8 +11,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use trussmesh::expr::{Expr, ExprImplicit2, ExprImplicit3};
 use trussmesh::geometry::project::Projection;
-use trussmesh::io::{CellType, Format, MeshData};
-use trussmesh::mesher::{mesh_2d, mesh_3d, Metric2, Options2, Options3, Report};
+use trussmesh::io::{CellType, MeshData};
+use trussmesh::mesher::{estimated_elements, mesh_2d, mesh_3d, Metric2, Options2, Options3, Report, Survey};
 
 /// Projection of boundary nodes onto d = 0.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum, Deserialize)]
@@ -84,10 +85,10 @@ pub struct MeshArgs {
     #[arg(long, value_name = "x,y[,z];...", allow_hyphen_values = true)]
     pub fix: Option<String>,
     /// Iteration cap.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole_number::<usize>)]
     pub max_iter: Option<usize>,
     /// Random seed.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole_number::<u64>)]
     pub seed: Option<u64>,
     /// Boundary projection.
     #[arg(long, value_enum)]
@@ -110,23 +111,67 @@ pub struct MeshArgs {
     /// Output file; the extension picks the format (.json .vtu .msh .mesh .obj .stl .ply .svg .png).
     #[arg(short = 'o', long = "output", value_name = "FILE")]
     pub output: Vec<PathBuf>,
+    /// Memory budget (such as 2G or 500M; default a quarter of the machine's memory): a run
+    /// whose estimate passes it is refused before meshing.
+    #[arg(long, value_name = "BYTES")]
+    pub max_memory: Option<String>,
     /// No progress bar and no report.
     #[arg(short, long)]
     pub quiet: bool,
 }
 
+/// A count given on the command line: a whole number from 0 up, with a message that says so
+/// (a negative number is not taken for a flag).
+pub fn whole_number<T: std::str::FromStr>(s: &str) -> Result<T, String> {
+    s.trim().parse::<T>().map_err(|_| {
+        if s.trim().starts_with('-') {
+            format!("{s} is negative: give a whole number from 0 up")
+        } else {
+            format!("{s:?} is not a whole number: give one from 0 up, such as 500")
+        }
+    })
+}
+
 /// A number in a scene file: a TOML number or a constant expression string.
-#[derive(Deserialize, Debug, Clone)]
-#[serde(untagged)]
+#[derive(Debug, Clone)]
 enum Num {
     F(f64),
     S(String),
 }
 
+impl<'de> Deserialize<'de> for Num {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Num, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = Num;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number (such as 0.1) or a constant expression in a string (such as \"0.05/3\")")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Num, E> {
+                if v.is_finite() {
+                    Ok(Num::F(v))
+                } else {
+                    Err(E::custom(format!("{v} is not a finite number")))
+                }
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Num, E> {
+                Ok(Num::F(v as f64))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Num, E> {
+                Ok(Num::F(v as f64))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Num, E> {
+                Ok(Num::S(v.to_string()))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
 impl Num {
     fn text(&self) -> String {
         match self {
-            Num::F(v) => v.to_string(),
+            Num::F(v) => format!("{v:?}"),
             Num::S(s) => s.clone(),
         }
     }
@@ -149,6 +194,7 @@ struct SceneFile {
     metric: Option<String>,
     sharp: Option<bool>,
     output: Option<Vec<PathBuf>>,
+    max_memory: Option<String>,
 }
 
 /// The run as text, from flags or a scene file, before checking.
@@ -169,6 +215,7 @@ pub struct Spec {
     /// Find sharp features and hold them fixed.
     pub sharp: bool,
     pub outputs: Vec<PathBuf>,
+    pub max_memory: Option<String>,
 }
 
 /// A checked run.
@@ -187,6 +234,7 @@ pub struct Job {
     pub metric: Option<[Expr; 3]>,
     pub sharp: bool,
     pub outputs: Vec<PathBuf>,
+    pub budget: Budget,
 }
 
 /// A finished run. `report` is the run's report without its quality summary (the mesh is
@@ -224,26 +272,10 @@ impl MeshArgs {
         if let Some(path) = &self.scene {
             let text = std::fs::read_to_string(path)
                 .map_err(|e| Failure::bad(format!("cannot read {}: {e}", path.display())))?;
-            let s: SceneFile =
-                toml::from_str(&text).map_err(|e| Failure::bad(format!("bad scene file {}: {e}", path.display())))?;
-            let mut outputs = s.output.unwrap_or_default();
-            outputs.extend(self.output.iter().cloned());
-            return Ok(Spec {
-                dim: s.dim.unwrap_or(2),
-                domain: s.domain,
-                size: s.size,
-                h0: s.h0.text(),
-                bbox: s.bbox.iter().map(Num::text).collect(),
-                fix: s.fix.unwrap_or_default().iter().map(|p| p.iter().map(Num::text).collect()).collect(),
-                max_iter: s.max_iter,
-                seed: s.seed,
-                projection: s.projection,
-                implicit: s.implicit.unwrap_or(false),
-                internal: s.internal,
-                metric: s.metric,
-                sharp: s.sharp.unwrap_or(true),
-                outputs,
-            });
+            let mut spec = scene_spec(&text, &path.display().to_string())?;
+            spec.outputs.extend(self.output.iter().cloned());
+            spec.max_memory = self.max_memory.clone().or(spec.max_memory);
+            return Ok(spec);
         }
         let need = |v: &Option<String>, flag: &str| {
             v.clone().ok_or_else(|| {
@@ -271,8 +303,31 @@ impl MeshArgs {
             metric: self.metric.clone(),
             sharp: !self.no_sharp,
             outputs: self.output.clone(),
+            max_memory: self.max_memory.clone(),
         })
     }
+}
+
+/// The run a scene file's text describes (`name` names it in errors).
+pub fn scene_spec(text: &str, name: &str) -> Result<Spec, Failure> {
+    let s: SceneFile = toml::from_str(text).map_err(|e| Failure::bad(format!("bad scene file {name}: {e}")))?;
+    Ok(Spec {
+        dim: s.dim.unwrap_or(2),
+        domain: s.domain,
+        size: s.size,
+        h0: s.h0.text(),
+        bbox: s.bbox.iter().map(Num::text).collect(),
+        fix: s.fix.unwrap_or_default().iter().map(|p| p.iter().map(Num::text).collect()).collect(),
+        max_iter: s.max_iter,
+        seed: s.seed,
+        projection: s.projection,
+        implicit: s.implicit.unwrap_or(false),
+        internal: s.internal,
+        metric: s.metric,
+        sharp: s.sharp.unwrap_or(true),
+        outputs: s.output.unwrap_or_default(),
+        max_memory: s.max_memory,
+    })
 }
 
 /// Parses an expression, reporting errors with a caret under the column.
@@ -293,28 +348,15 @@ pub fn constant(what: &str, src: &str) -> Result<f64, Failure> {
     Ok(v)
 }
 
-const PICTURES: [&str; 2] = ["svg", "png"];
-
-fn extension(p: &Path) -> String {
-    p.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default()
-}
-
-/// Checks an output path's extension before any work is done.
-pub fn check_output(p: &Path) -> Result<(), Failure> {
-    if PICTURES.contains(&extension(p).as_str()) {
-        return Ok(());
-    }
-    Format::from_path(p).map(|_| ()).map_err(|_| {
-        Failure::bad(format!(
-            "unknown output extension in {} (expected .json .vtu .msh .mesh .obj .stl .ply .svg .png)",
-            p.display()
-        ))
-    })
-}
-
 impl Spec {
     /// Checks everything and compiles the expressions.
     pub fn resolve(&self) -> Result<Job, Failure> {
+        self.resolve_with(true)
+    }
+
+    /// [`Spec::resolve`]; with `files` false the outputs' extensions are checked but not the
+    /// file system, and the budget is the fixed fallback (for the fuzz body).
+    pub fn resolve_with(&self, files: bool) -> Result<Job, Failure> {
         let dim = self.dim;
         if dim != 2 && dim != 3 {
             return Err(Failure::bad(format!("--dim must be 2 or 3, not {dim}")));
@@ -376,12 +418,29 @@ impl Spec {
         }
         let bbox = self.bbox.iter().map(|s| constant("a --bbox value", s)).collect::<Result<Vec<_>, _>>()?;
         for k in 0..dim {
+            let axis = ["x", "y", "z"][k];
             if bbox[k] >= bbox[k + dim] {
                 return Err(Failure::bad(format!(
-                    "--bbox is empty along axis {}: min {} >= max {} (order: {axes})",
-                    ["x", "y", "z"][k],
+                    "--bbox is empty along axis {axis}: min {} >= max {} (order: {axes})",
                     bbox[k],
                     bbox[k + dim]
+                )));
+            }
+            let width = bbox[k + dim] - bbox[k];
+            if !width.is_finite() {
+                return Err(Failure::bad(format!(
+                    "--bbox is too wide along axis {axis}: from {} to {} is more than the largest number (about \
+                     1.8e308); give a box that holds the domain with a margin",
+                    sig(bbox[k]),
+                    sig(bbox[k + dim])
+                )));
+            }
+            if width / h0 > 1e15 {
+                return Err(Failure::bad(format!(
+                    "--bbox is {} wide along axis {axis}, {} times h0 = {h0:e}: no mesh has that many elements \
+                     across; give a larger --h0 or a smaller box",
+                    sig(width),
+                    sig(width / h0)
                 )));
             }
         }
@@ -394,14 +453,34 @@ impl Spec {
                     p.len()
                 )));
             }
-            fix.push(p.iter().map(|s| constant("a --fix coordinate", s)).collect::<Result<Vec<_>, _>>()?);
+            let q = p.iter().map(|s| constant("a --fix coordinate", s)).collect::<Result<Vec<_>, _>>()?;
+            if (0..dim).any(|k| q[k] < bbox[k] || q[k] > bbox[k + dim]) {
+                return Err(Failure::bad(format!(
+                    "the fixed point {} lies outside the box {} - {} (--bbox)",
+                    show_point(&q),
+                    show_point(&bbox[..dim]),
+                    show_point(&bbox[dim..])
+                )));
+            }
+            fix.push(q);
         }
-        if self.outputs.is_empty() {
-            return Err(Failure::bad("no output file: give -o FILE (several allowed)"));
+        if dim == 3 {
+            for p in &self.outputs {
+                if matches!(output::extension(p).as_str(), "svg" | "png" | "obj" | "stl" | "ply") {
+                    return Err(Failure::bad(format!(
+                        "{} cannot hold tetrahedra; use .vtu, .msh, .mesh or .json with --dim 3",
+                        p.display()
+                    )));
+                }
+            }
         }
-        for p in &self.outputs {
-            check_output(p)?;
-        }
+        let budget = if files {
+            output::check_all(&self.outputs)?;
+            Budget::new(self.max_memory.as_deref())?
+        } else {
+            self.outputs.iter().try_for_each(|p| output::check_extension(p))?;
+            Budget { limit: budget::FALLBACK_BYTES, source: "the fuzz body's".into() }
+        };
         Ok(Job {
             dim,
             domain,
@@ -417,6 +496,7 @@ impl Spec {
             metric,
             sharp: self.sharp,
             outputs: self.outputs.clone(),
+            budget,
         })
     }
 }
@@ -521,39 +601,294 @@ impl Job {
         o.with_sharp_edges(self.sharp)
     }
 
-    /// Meshes in 2-D or 3-D.
+    /// Meshes in 2-D or 3-D, after the checks that need the domain: fixed points inside it,
+    /// internal boundaries that cut it, and the memory estimate against the budget.
     pub fn mesh(&self, quiet: bool) -> Result<Meshed, Failure> {
-        if self.dim == 3 {
-            return mesh3(self, quiet);
-        }
-        let geom = ExprImplicit2 { expr: self.domain.clone(), distance: !self.implicit };
-        let out = with_progress_bar(quiet, "iterations", |pb| mesh_2d(&geom, &self.options2(pb)))?;
-        let trussmesh::topology::MeshArrays { points, cells: tris, labels, .. } = out.mesh.to_arrays();
-        let subdomain =
-            if labels.iter().any(|&l| l != 0) { Some(labels.iter().map(|&l| l as i32).collect()) } else { None };
-        let mesh = MeshData {
-            dim: 2,
-            cell_type: CellType::Triangle,
-            points: points.iter().map(|p| [p.x, p.y, 0.0]).collect(),
-            cells: tris.iter().flatten().copied().collect(),
-            subdomain,
-        };
-        let summary = out.report.to_string();
-        Ok(Meshed { mesh, report: out.report.map_quality(|_| ()), summary })
+        self.warn_slow_expressions(quiet);
+        self.check_before_meshing()?;
+        let result = if self.dim == 3 { mesh3(self, quiet) } else { mesh2(self, quiet) };
+        result.map_err(|f| self.diagnose(f))
     }
+
+    /// The domain as the meshers see it.
+    fn geom2(&self) -> ExprImplicit2 {
+        ExprImplicit2 { expr: self.domain.clone(), distance: !self.implicit }
+    }
+
+    fn geom3(&self) -> ExprImplicit3 {
+        ExprImplicit3 { expr: self.domain.clone(), distance: !self.implicit }
+    }
+
+    /// The estimated element count of the mesher's survey (bad input fails here, before any
+    /// meshing, as it would in the mesher).
+    pub fn estimated_elements(&self) -> Result<f64, Failure> {
+        let r = if self.dim == 3 {
+            estimated_elements(Survey::Volume(&self.geom3(), &self.options3(None)))
+        } else {
+            estimated_elements(Survey::Planar(&self.geom2(), &self.options2(None)))
+        };
+        r.map_err(|e| self.diagnose(e.into()))
+    }
+
+    /// Warns (on stderr) when the expressions are so long that the survey of the box alone
+    /// would take more than ten seconds: each of its samples evaluates them once.
+    fn warn_slow_expressions(&self, quiet: bool) {
+        let b = &self.bbox;
+        let cap = if self.dim == 3 { 96.0 } else { 512.0 };
+        let samples: f64 =
+            (0..self.dim).map(|k| ((b[k + self.dim] - b[k]) / self.h0 + 1.0).ceil().clamp(8.0, cap)).product();
+        let exprs: Vec<(&str, &Expr)> = std::iter::once(("--domain", &self.domain))
+            .chain(self.size.as_ref().map(|e| ("--size", e)))
+            .chain(self.internal.as_ref().map(|e| ("--internal", e)))
+            .collect();
+        let start = Instant::now();
+        let mut reps = 0u32;
+        let mut sink = 0.0;
+        while reps < 64 && (reps < 2 || start.elapsed() < Duration::from_millis(200)) {
+            let t = reps as f64 / 64.0;
+            for (_, e) in &exprs {
+                sink += e.eval(b[0] + t * (b[self.dim] - b[0]), b[1] + t * (b[self.dim + 1] - b[1]), 0.0);
+            }
+            reps += 1;
+        }
+        let per = start.elapsed().as_secs_f64() / reps as f64;
+        let survey = per * samples;
+        if survey > 10.0 && !quiet {
+            std::hint::black_box(sink);
+            let ops: usize = exprs.iter().map(|(_, e)| e.ops()).sum();
+            let names: Vec<&str> = exprs.iter().map(|(n, _)| *n).collect();
+            eprintln!(
+                "warning: one evaluation of {} takes about {} ms ({} operations, {} of source); the survey of the box \
+                 alone evaluates it {} times (about {} minutes), and meshing many times more; shorten the expression or \
+                 use a larger --h0",
+                names.join(" and "),
+                sig(per * 1e3),
+                budget::count(ops as f64),
+                budget::human(exprs.iter().map(|(_, e)| e.source().len() as f64).sum()),
+                budget::count(samples),
+                sig(survey / 60.0)
+            );
+        }
+    }
+
+    fn check_before_meshing(&self) -> Result<(), Failure> {
+        // Fixed points must lie in the closed domain (d <= 0 up to rounding).
+        for p in &self.fix {
+            let d = self.domain.eval(p[0], p[1], p.get(2).copied().unwrap_or(0.0));
+            if d.is_nan() || d > 1e-2 * self.h0 {
+                return Err(Failure::bad(format!(
+                    "the fixed point {} lies outside the domain (d = {d:.4} there); fixed points must be inside it \
+                     or on its boundary",
+                    show_point(p)
+                )));
+            }
+        }
+        if let Some(e) = &self.internal {
+            self.check_internal(e)?;
+        }
+        let n = self.estimated_elements()?;
+        let (what, per, unit) = if self.dim == 3 {
+            ("the 3-D mesh", budget::BYTES_PER_TET, "tetrahedra")
+        } else {
+            ("the 2-D mesh", budget::BYTES_PER_TRIANGLE_2D, "triangles")
+        };
+        self.budget.check(
+            what,
+            budget::BASE_BYTES + n * per,
+            &format!("about {} {unit} at about {per} bytes each", budget::count(n)),
+            "use a larger --h0",
+        )
+    }
+
+    /// An internal boundary must change sign inside the domain, or it separates nothing.
+    fn check_internal(&self, e: &Expr) -> Result<(), Failure> {
+        let b = &self.bbox;
+        let n = 200;
+        let (mut neg, mut pos) = (false, false);
+        for j in 0..=n {
+            for i in 0..=n {
+                let x = b[0] + (b[2] - b[0]) * i as f64 / n as f64;
+                let y = b[1] + (b[3] - b[1]) * j as f64 / n as f64;
+                if self.domain.eval(x, y, 0.0) < 0.0 {
+                    let v = e.eval(x, y, 0.0);
+                    neg |= v < 0.0;
+                    pos |= v > 0.0;
+                }
+            }
+        }
+        if neg && pos {
+            return Ok(());
+        }
+        Err(Failure::bad(format!(
+            "--internal {:?} is {} everywhere inside the domain: its curves EXPR = 0 do not cross the domain, so it \
+             separates nothing (no subdomain labels would be made)",
+            e.source(),
+            if neg { "negative" } else { "non-negative" }
+        )))
+    }
+
+    /// Rewrites a mesher's failure in the user's terms where its message cannot know them.
+    fn diagnose(&self, f: Failure) -> Failure {
+        if f.code != super::EXIT_BAD_INPUT {
+            return f;
+        }
+        let empty = f.message.starts_with("empty domain: no triangle of the initial mesh")
+            || f.message.contains("lattice points fall inside the domain");
+        let coplanar = f.message.contains("the points are coplanar");
+        if !(empty || coplanar) {
+            return f;
+        }
+        let s = DomainSample::new(self);
+        if s.inside == 0 {
+            return f;
+        }
+        let axes = ["x", "y", "z"];
+        // A domain thinner than h0 along an axis: no element fits across it.
+        for k in 0..self.dim {
+            let thick = s.hi[k] - s.lo[k] + s.step[k];
+            if thick < self.h0 {
+                return Failure::bad(format!(
+                    "the domain is about {} across along {}, less than h0 = {}: no {} fits across it; give an --h0 \
+                     below {}",
+                    sig(thick),
+                    axes[k],
+                    self.h0,
+                    if self.dim == 3 { "tetrahedron" } else { "triangle" },
+                    sig(thick / 2.0)
+                ));
+            }
+        }
+        if let Some(size) = &self.size {
+            let ratio = s.h_max / s.h_min;
+            let extent = (0..self.dim).map(|k| s.hi[k] - s.lo[k] + s.step[k]).fold(0.0f64, f64::max);
+            if ratio.is_finite() && self.h0 * ratio > extent / 2.0 {
+                let p = show_point(&s.h_max_at[..self.dim].iter().map(|&x| round_sig(x)).collect::<Vec<_>>());
+                return Failure::bad(format!(
+                    "--size {:?} grows from {} to {} inside the domain (at {p}): sizes are relative, so the elements \
+                     there would be {} x h0 = {} across, more than half the domain ({} across), and the start mesh \
+                     misses the domain; bound the size's ratio (such as min({}, R)) or lower --h0",
+                    size.source(),
+                    sig(s.h_min),
+                    sig(s.h_max),
+                    sig(ratio),
+                    sig(self.h0 * ratio),
+                    sig(extent),
+                    size.source()
+                ));
+            }
+        }
+        if empty {
+            let extent = (0..self.dim).map(|k| s.hi[k] - s.lo[k] + s.step[k]).fold(f64::INFINITY, f64::min);
+            return Failure::bad(format!(
+                "h0 = {} is too large for the domain, which is about {} across at its narrowest: give an --h0 below {}",
+                self.h0,
+                sig(extent),
+                sig(extent / 3.0)
+            ));
+        }
+        f
+    }
+}
+
+/// A number to three significant digits: 0.0123, 4.57, 1.23e6.
+pub fn sig(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-3..1e5).contains(&x.abs()) {
+        return format!("{x:.2e}");
+    }
+    let digits = if x == 0.0 || !x.is_finite() { 0 } else { (2 - x.abs().log10().floor() as i32).max(0) as usize };
+    format!("{x:.digits$}")
+}
+
+/// `x` rounded to three significant digits (0.9950000000000001 becomes 0.995).
+pub fn round_sig(x: f64) -> f64 {
+    sig(x).parse().unwrap_or(x)
+}
+
+/// "(5, 5, 5)": a point as the user wrote it.
+pub fn show_point(p: &[f64]) -> String {
+    let c: Vec<String> = p.iter().map(|x| format!("{x}")).collect();
+    format!("({})", c.join(", "))
+}
+
+/// The domain sampled on a grid over the box: where it is inside, and the size there.
+struct DomainSample {
+    inside: usize,
+    lo: [f64; 3],
+    hi: [f64; 3],
+    step: [f64; 3],
+    h_min: f64,
+    h_max: f64,
+    h_max_at: [f64; 3],
+}
+
+impl DomainSample {
+    fn new(job: &Job) -> DomainSample {
+        let dim = job.dim;
+        let n = if dim == 3 { 64 } else { 400 };
+        let b = &job.bbox;
+        let mut step = [0.0; 3];
+        for k in 0..dim {
+            step[k] = (b[k + dim] - b[k]) / n as f64;
+        }
+        let mut s = DomainSample {
+            inside: 0,
+            lo: [f64::INFINITY; 3],
+            hi: [f64::NEG_INFINITY; 3],
+            step,
+            h_min: f64::INFINITY,
+            h_max: 0.0,
+            h_max_at: [0.0; 3],
+        };
+        let nz = if dim == 3 { n } else { 0 };
+        for kz in 0..=nz {
+            for j in 0..=n {
+                for i in 0..=n {
+                    let mut p = [b[0] + step[0] * i as f64, b[1] + step[1] * j as f64, 0.0];
+                    if dim == 3 {
+                        p[2] = b[2] + step[2] * kz as f64;
+                    }
+                    let d = job.domain.eval(p[0], p[1], p[2]);
+                    if d.is_nan() || d >= 0.0 {
+                        continue;
+                    }
+                    s.inside += 1;
+                    for k in 0..dim {
+                        s.lo[k] = s.lo[k].min(p[k]);
+                        s.hi[k] = s.hi[k].max(p[k]);
+                    }
+                    if let Some(h) = &job.size {
+                        let v = h.eval(p[0], p[1], p[2]);
+                        if v.is_finite() && v > 0.0 {
+                            s.h_min = s.h_min.min(v);
+                            if v > s.h_max {
+                                s.h_max = v;
+                                s.h_max_at = p;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        s
+    }
+}
+
+fn planar_data(out: &trussmesh::mesher::MeshOutput2) -> MeshData {
+    MeshData::from_trimesh2(&out.mesh)
+}
+
+/// 2-D meshing: triangles.
+fn mesh2(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
+    let geom = job.geom2();
+    let out = with_progress_bar(quiet, "iterations", |pb| mesh_2d(&geom, &job.options2(pb)))?;
+    let mesh = planar_data(&out);
+    let summary = out.report.to_string();
+    Ok(Meshed { mesh, report: out.report.map_quality(|_| ()), summary })
 }
 
 /// 3-D meshing: tetrahedra, written as 3-D cells (.vtu, .msh, .mesh, .json).
 fn mesh3(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
-    for p in &job.outputs {
-        if matches!(extension(p).as_str(), "svg" | "png" | "obj" | "stl" | "ply") {
-            return Err(Failure::bad(format!(
-                "{} cannot hold tetrahedra; use .vtu, .msh, .mesh or .json with --dim 3",
-                p.display()
-            )));
-        }
-    }
-    let geom = ExprImplicit3 { expr: job.domain.clone(), distance: !job.implicit };
+    let geom = job.geom3();
     let out = with_progress_bar(quiet, "iterations", |pb| mesh_3d(&geom, &job.options3(pb)))?;
     let trussmesh::topology::MeshArrays { points, cells: tets, labels, .. } = out.mesh.to_arrays();
     let subdomain =
@@ -569,23 +904,9 @@ fn mesh3(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
     Ok(Meshed { mesh, report: out.report.map_quality(|_| ()), summary })
 }
 
-/// Writes one output: a mesh file, or a picture for .svg and .png.
+/// Writes one output: a mesh file, or a picture for .svg and .png (whole or not at all).
 pub fn write_output(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Failure> {
-    if let Some(dir) = path.parent() {
-        if !dir.as_os_str().is_empty() {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| Failure::internal(format!("cannot create directory {}: {e}", dir.display())))?;
-        }
-    }
-    let r = match extension(path).as_str() {
-        "svg" => trussmesh::io::write_svg(path, mesh, title),
-        "png" => trussmesh::io::write_png(path, mesh, title, 1200),
-        _ => trussmesh::io::write_mesh(path, mesh),
-    };
-    r.map_err(|e| match e {
-        trussmesh::Error::Io { .. } => Failure::internal(e.to_string()),
-        e => e.into(),
-    })
+    output::write_one(path, mesh, title)
 }
 
 /// `trussmesh mesh`.
@@ -593,9 +914,7 @@ pub fn run(args: MeshArgs) -> Result<(), Failure> {
     let job = args.spec()?.resolve()?;
     let done = job.mesh(args.quiet)?;
     let title = job.domain.source().to_string();
-    for p in &job.outputs {
-        write_output(p, &done.mesh, &title)?;
-    }
+    output::write_all(&job.outputs, &done.mesh, &title)?;
     if !args.quiet {
         println!("{}", done.summary);
         for p in &job.outputs {

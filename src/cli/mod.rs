@@ -1,8 +1,11 @@
 //! The command line: subcommands, errors and exit codes (0 ok, 1 internal failure, 2 bad input).
 
+mod budget;
+pub mod fuzz;
 mod gallery;
 mod image;
 mod mesh;
+mod output;
 mod remesh;
 mod stats;
 mod surface;
@@ -37,7 +40,8 @@ impl From<trussmesh::Error> for Failure {
     fn from(e: trussmesh::Error) -> Self {
         match e {
             trussmesh::Error::Internal { .. } => Failure::internal(e.to_string()),
-            _ => Failure::bad(e.to_string()),
+            // Points print as the user writes them, "(5, 5, 5)", not as the type that holds them.
+            _ => Failure::bad(e.to_string().replace("DVec3(", "(").replace("DVec2(", "(")),
         }
     }
 }

@@ -21,12 +21,16 @@ pub struct StatsArgs {
     /// Domain d(x, y[, z]): report the largest |d| over boundary vertices.
     #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
     pub domain: Option<String>,
-    /// The domain is a level set: use |d| / |grad d| as the distance.
-    #[arg(long)]
+    /// The domain is a level set: use |d| / |grad d| as the distance (needs --domain).
+    #[arg(long, requires = "domain")]
     pub implicit: bool,
     /// Relative size h(x, y[, z]): report std/mean of circumradius / h(centroid).
     #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
     pub size: Option<String>,
+    /// Exit with code 2 when the mesh is invalid (reversed, degenerate, duplicated or
+    /// overlapping cells, non-manifold facets or vertices).
+    #[arg(long)]
+    pub check: bool,
 }
 
 /// Triangle quality.
@@ -53,6 +57,10 @@ pub struct TetStats {
 /// Everything `stats` reports.
 #[derive(Serialize, Debug, Clone)]
 pub struct MeshStats {
+    /// No problem found by the validity checks.
+    pub valid: bool,
+    /// What the validity checks found, one line per kind of problem.
+    pub problems: Vec<String>,
     pub dim: usize,
     pub cell_type: &'static str,
     pub nodes: usize,
@@ -106,14 +114,14 @@ pub fn compute(m: &MeshData, domain: Option<(&Expr, bool)>, size: Option<&Expr>)
                 let [a, b, d] = [pt(m, c[0]), pt(m, c[1]), pt(m, c[2])];
                 let (la, lb, lc) = (b.distance(d), d.distance(a), a.distance(b));
                 qs.push(quality::triangle_q_from_lengths(la, lb, lc));
-                for ang in quality::triangle_angles_deg(la, lb, lc) {
+                for ang in quality::triangle_angles_deg(la, lb, lc).into_iter().filter(|a| a.is_finite()) {
                     amin = amin.min(ang);
                     amax = amax.max(ang);
                 }
                 radius.push(quality::circumradius_from_lengths(la, lb, lc));
                 centroid.push((a + b + d) / 3.0);
             }
-            if n > 0 {
+            if amin <= amax {
                 let mean = qs.iter().sum::<f64>() / n as f64;
                 qs.sort_by(f64::total_cmp);
                 triangles = Some(TriStats {
@@ -136,14 +144,14 @@ pub fn compute(m: &MeshData, domain: Option<(&Expr, bool)>, size: Option<&Expr>)
                 let r = quality::tet_radius_ratio(p);
                 rmin = rmin.min(r);
                 rsum += r;
-                for a in quality::tet_dihedral_angles_deg(p) {
+                for a in quality::tet_dihedral_angles_deg(p).into_iter().filter(|a| a.is_finite()) {
                     dmin = dmin.min(a);
                     dmax = dmax.max(a);
                 }
                 radius.push(tet_circumradius(p));
                 centroid.push((p[0] + p[1] + p[2] + p[3]) / 4.0);
             }
-            if n > 0 {
+            if dmin <= dmax {
                 tets = Some(TetStats {
                     radius_ratio_min: rmin,
                     radius_ratio_mean: rsum / n as f64,
@@ -208,7 +216,10 @@ pub fn compute(m: &MeshData, domain: Option<(&Expr, bool)>, size: Option<&Expr>)
         }
         worst
     });
+    let check = trussmesh::io::check_mesh(m);
     Ok(MeshStats {
+        valid: check.is_valid(),
+        problems: check.problems.iter().map(|p| p.message.clone()).collect(),
         dim: m.dim,
         cell_type: match m.cell_type {
             CellType::Triangle => "triangle",
@@ -226,11 +237,27 @@ pub fn compute(m: &MeshData, domain: Option<(&Expr, bool)>, size: Option<&Expr>)
 
 impl std::fmt::Display for MeshStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.valid {
+            writeln!(f, "valid: consistently oriented, no degenerate, duplicated or overlapping cells, manifold")?;
+        } else {
+            writeln!(
+                f,
+                "INVALID MESH: {} kind{} of problem; the figures below describe an invalid mesh",
+                self.problems.len(),
+                if self.problems.len() == 1 { "" } else { "s" }
+            )?;
+            for p in &self.problems {
+                writeln!(f, "  - {p}")?;
+            }
+        }
         writeln!(
             f,
             "{}-D {} mesh: {} nodes, {} cells, {} boundary facets",
             self.dim, self.cell_type, self.nodes, self.cells, self.boundary_facets
         )?;
+        if self.triangles.is_none() && self.tets.is_none() && self.cells > 0 {
+            writeln!(f, "no quality figures: no cell has a positive size")?;
+        }
         if let Some(t) = &self.triangles {
             writeln!(
                 f,
@@ -272,6 +299,9 @@ pub fn run(a: StatsArgs) -> Result<(), Failure> {
     } else {
         println!("file: {}", a.file.display());
         print!("{s}");
+    }
+    if a.check && !s.valid {
+        return Err(Failure::bad(format!("{} is not a valid mesh: {}", a.file.display(), s.problems.join("; "))));
     }
     Ok(())
 }

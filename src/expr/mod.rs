@@ -115,6 +115,12 @@ impl Expr {
         (r.v, r.d)
     }
 
+    /// The number of operations of the compiled program: what one evaluation costs, about a
+    /// few nanoseconds each.
+    pub fn ops(&self) -> usize {
+        self.code.len()
+    }
+
     /// Whether the variable z appears (a 3-D expression).
     pub fn uses_z(&self) -> bool {
         self.uses_z

@@ -46,6 +46,7 @@ impl MeshData {
     }
 }
 
+pub mod check;
 mod json;
 mod medit;
 mod msh;
@@ -54,7 +55,8 @@ mod surface;
 mod text;
 mod vtu;
 
-pub use picture::{write_png, write_svg};
+pub use check::{check_mesh, MeshCheck, Problem, ProblemKind};
+pub use picture::{png_bytes, svg_bytes, write_png, write_svg};
 
 use crate::Error;
 use std::collections::HashMap;
@@ -147,13 +149,19 @@ impl MeshData {
     /// Facets (edges of triangles, faces of tets) that belong to one cell only, oriented
     /// outward from that cell, in order of first appearance: the boundary files record.
     pub fn boundary_facets(&self) -> Vec<Vec<usize>> {
+        let key = |f: &[usize]| {
+            let mut k = [usize::MAX; 3];
+            k[..f.len()].copy_from_slice(f);
+            k[..f.len()].sort_unstable();
+            k
+        };
         let faces: Vec<Vec<usize>> =
             (0..self.num_cells()).flat_map(|i| cell_facets(self.cell_type, self.cell(i))).collect();
-        let mut count: HashMap<Vec<usize>, u32> = HashMap::with_capacity(faces.len());
+        let mut count: HashMap<[usize; 3], u32> = HashMap::with_capacity(faces.len());
         for f in &faces {
-            *count.entry(sorted(f)).or_insert(0) += 1;
+            *count.entry(key(f)).or_insert(0) += 1;
         }
-        faces.into_iter().filter(|f| count[&sorted(f)] == 1).collect()
+        faces.into_iter().filter(|f| count[&key(f)] == 1).collect()
     }
 }
 
@@ -185,7 +193,44 @@ pub fn read_mesh(path: &Path) -> Result<MeshData, Error> {
 pub fn write_mesh(path: &Path, mesh: &MeshData) -> Result<(), Error> {
     let format = Format::from_path(path)?;
     let bytes = write_mesh_bytes(mesh, format)?;
-    std::fs::write(path, bytes).map_err(|e| Error::Io { path: path.display().to_string(), message: e.to_string() })
+    write_file(path, &bytes)
+}
+
+/// Writes `bytes` to `path` whole or not at all: a regular file (or a new one) is written to a
+/// temporary file beside it, flushed and renamed over it, so that a full disk or a killed run
+/// leaves the old file (or none) instead of half a file; anything else that exists already (a
+/// device such as /dev/null, a pipe) is written directly.
+pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    use std::io::Write;
+    let err = |e: std::io::Error| Error::Io { path: path.display().to_string(), message: e.to_string() };
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_dir() => {
+            return Err(Error::Io { path: path.display().to_string(), message: "is a directory".into() })
+        }
+        Ok(m) if !m.is_file() => return std::fs::write(path, bytes).map_err(err),
+        _ => {}
+    }
+    // A link to a file: the file it names is replaced, the link kept.
+    let target;
+    let path = if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+        target = std::fs::canonicalize(path).map_err(err)?;
+        target.as_path()
+    } else {
+        path
+    };
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.partial", std::process::id()));
+    let written = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = written {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(err(e));
+    }
+    Ok(())
 }
 
 /// Reads a mesh from memory (errors name the source `<memory>`).

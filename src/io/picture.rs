@@ -340,10 +340,6 @@ fn hex(c: Rgb) -> String {
     format!("#{:02x}{:02x}{:02x}", c[0], c[1], c[2])
 }
 
-fn io_err(path: &Path, e: impl std::fmt::Display) -> Error {
-    Error::Io { path: path.display().to_string(), message: e.to_string() }
-}
-
 fn svg_text(sc: &Scene) -> String {
     let mut s = format!(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{h:.0}\" viewBox=\"0 0 {w:.1} {h:.1}\" font-family=\"sans-serif\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n",
@@ -381,12 +377,22 @@ fn svg_text(sc: &Scene) -> String {
 /// Writes an SVG picture: the 2-D mesh coloured by quality (or the shaded 3-D view), a quality
 /// histogram, a colour legend and the title.
 pub fn write_svg(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Error> {
+    super::write_file(path, &svg_bytes(mesh, title)?)
+}
+
+/// The picture of [`write_svg`] as the bytes of an SVG file.
+pub fn svg_bytes(mesh: &MeshData, title: &str) -> Result<Vec<u8>, Error> {
     let sc = build_scene(mesh, title, 800.0)?;
-    std::fs::write(path, svg_text(&sc)).map_err(|e| io_err(path, e))
+    Ok(svg_text(&sc).into_bytes())
 }
 
 /// Writes the same picture as [`write_svg`] as a PNG `width_px` wide, without text.
 pub fn write_png(path: &Path, mesh: &MeshData, title: &str, width_px: u32) -> Result<(), Error> {
+    super::write_file(path, &png_bytes(mesh, title, width_px)?)
+}
+
+/// The picture of [`write_png`] as the bytes of a PNG file.
+pub fn png_bytes(mesh: &MeshData, title: &str, width_px: u32) -> Result<Vec<u8>, Error> {
     use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
     if !(64..=16384).contains(&width_px) {
         return Err(Error::Invalid(format!("PNG width {width_px} must be in 64..=16384 pixels")));
@@ -437,5 +443,5 @@ pub fn write_png(path: &Path, mesh: &MeshData, title: &str, width_px: u32) -> Re
             Prim::Text { .. } => {}
         }
     }
-    pix.save_png(path).map_err(|e| io_err(path, e))
+    pix.encode_png().map_err(|e| Error::internal(format!("cannot encode the PNG picture: {e}")))
 }

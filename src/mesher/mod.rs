@@ -43,6 +43,39 @@ pub type MeshOutput2 = MeshOutput<TriMesh<DVec2>, QualityStats>;
 /// The output of the 3-D mesher: a tetrahedral mesh and its report.
 pub type MeshOutput3 = MeshOutput<TetMesh, QualityStats3>;
 
+/// A domain and the options of one of the two meshers, for [`estimated_elements`].
+#[derive(Clone, Copy)]
+pub enum Survey<'a> {
+    /// The 2-D mesher's input.
+    Planar(&'a dyn Implicit2, &'a Options2),
+    /// The 3-D mesher's input.
+    Volume(&'a dyn Implicit3, &'a Options3),
+}
+
+/// The number of elements (triangles in 2-D, tetrahedra in 3-D) the mesher's input survey
+/// expects for this domain and these options, without meshing: what a caller checks a memory
+/// budget against. It is not capped by `max_elements` (it may be infinite); bad input (h0, the
+/// box, d or h not finite, an empty domain) is the error the mesher itself would return.
+pub fn estimated_elements(survey: Survey<'_>) -> Result<f64, crate::Error> {
+    let estimate = match survey {
+        Survey::Planar(domain, opts) => {
+            let mut o = opts.clone();
+            o.max_elements = u64::MAX;
+            input::survey(domain, &o).map(|s| s.estimated_triangles)
+        }
+        Survey::Volume(domain, opts) => {
+            let mut o = opts.clone();
+            o.max_elements = u64::MAX;
+            volume::start::survey(domain, &o).map(|s| s.estimated_tets)
+        }
+    };
+    match estimate {
+        // Only an estimate past u64::MAX passes the lifted cap.
+        Err(crate::Error::TooManyElements { .. }) => Ok(f64::INFINITY),
+        e => e,
+    }
+}
+
 /// Meshes {d < 0} in 3-D with tetrahedra: force equilibrium with local swaps, density control
 /// and sliver removal inside the run (see the module notes of the 3-D mesher).
 ///

@@ -39,7 +39,7 @@ pub(super) mod options;
 pub(super) mod report;
 mod smoothing;
 mod snapshot;
-mod start;
+pub(crate) mod start;
 #[cfg(test)]
 mod tests;
 

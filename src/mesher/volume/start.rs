@@ -35,14 +35,14 @@ pub(super) fn eval_h_floor(opts: &Options3, p: DVec3, floor: f64) -> Result<f64,
     checked_h(opts.size.as_deref(), p, floor)
 }
 
-pub(super) struct Survey {
-    pub(super) estimated_tets: f64,
+pub(crate) struct Survey {
+    pub(crate) estimated_tets: f64,
     pub(super) h_floor: f64,
 }
 
 /// Checks h0, the box, the fixed points, d and h on a sample grid, and the element estimate,
 /// before anything large is allocated.
-pub(super) fn survey(domain: &dyn Implicit3, opts: &Options3) -> Result<Survey, Error> {
+pub(crate) fn survey(domain: &dyn Implicit3, opts: &Options3) -> Result<Survey, Error> {
     let h0 = opts.h0;
     let [lo, hi] = opts.bbox;
     check_input(h0, lo, hi, &opts.fixed)?;
