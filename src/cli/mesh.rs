@@ -744,14 +744,14 @@ impl Job {
         }
         let axes = ["x", "y", "z"];
         // A domain thinner than h0 along an axis: no element fits across it.
-        for k in 0..self.dim {
+        for (k, axis) in axes.iter().enumerate().take(self.dim) {
             let thick = s.hi[k] - s.lo[k] + s.step[k];
             if thick < self.h0 {
                 return Failure::bad(format!(
                     "the domain is about {} across along {}, less than h0 = {}: no {} fits across it; give an --h0 \
                      below {}",
                     sig(thick),
-                    axes[k],
+                    axis,
                     self.h0,
                     if self.dim == 3 { "tetrahedron" } else { "triangle" },
                     sig(thick / 2.0)
@@ -852,9 +852,9 @@ impl DomainSample {
                         continue;
                     }
                     s.inside += 1;
-                    for k in 0..dim {
-                        s.lo[k] = s.lo[k].min(p[k]);
-                        s.hi[k] = s.hi[k].max(p[k]);
+                    for (k, &x) in p.iter().enumerate().take(dim) {
+                        s.lo[k] = s.lo[k].min(x);
+                        s.hi[k] = s.hi[k].max(x);
                     }
                     if let Some(h) = &job.size {
                         let v = h.eval(p[0], p[1], p[2]);
