@@ -56,7 +56,8 @@ pub use glam;
 
 pub use geometry::{Implicit2, Implicit3, LevelSet};
 pub use mesher::surface::{mesh_surface, SurfaceOptions};
-pub use mesher::{mesh_2d, mesh_3d, MeshOutput2, MeshOutput3, Options2, Options3, StopReason};
+pub use mesher::{mesh_2d, mesh_3d, MeshOutput, MeshOutput2, MeshOutput3, Options2, Options3, Report, StopReason};
+pub use topology::MeshArrays;
 
 #[doc(hidden)]
 pub mod testing;
