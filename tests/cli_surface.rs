@@ -84,7 +84,7 @@ fn bad_input_exits_2() {
     let cases: [(&[&str], &str); 7] = [
         (&["--phi", "sqrt(x^2+y^2+z^2)+1", "--bbox", BOX, "--h0", "0.2"], "empty domain"),
         (&["--phi", "sqrt(x^2+y^2+z^2-1)", "--bbox", BOX, "--h0", "0.2"], "non-finite"),
-        (&["--phi", SPHERE, "--bbox", BOX, "--h0", "0"], "h0 must be positive and finite, got 0"),
+        (&["--phi", SPHERE, "--bbox", BOX, "--h0", "0"], "h0 = 0 must be positive"),
         (&["--phi", SPHERE, "--bbox", BOX, "--h0", "-0.1"], "must be positive"),
         (
             &["--phi", SPHERE, "--bbox", "-0.5,-0.5,-0.5,0.5,0.5,0.5", "--h0", "0.1"],
