@@ -7,6 +7,7 @@ mod image;
 mod mesh;
 mod output;
 mod remesh;
+mod scene;
 mod stats;
 mod surface;
 
