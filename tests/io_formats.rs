@@ -214,7 +214,7 @@ fn garbled_files_give_parse_errors() {
     let v = text(&m3, Format::Vtu);
     check(Format::Vtu, edit(&v, "Points", "0.1", "zz"), "finite number");
     check(Format::Vtu, v.replace("NumberOfPoints=\"8\"", "NumberOfPoints=\"1000000000000000000\""), "numberofpoints");
-    check(Format::Vtu, v.replace("format=\"ascii\"", "format=\"binary\""), "binary/appended");
+    check(Format::Vtu, v.replace("format=\"ascii\"", "format=\"binary\""), "base64");
     check(Format::Vtu, v[..v.len() / 2].to_string(), "truncated");
     check(Format::Vtu, edit(&v, "connectivity", " 7", " 70"), "node 70");
     check(Format::Vtu, v.replace("<Points>", "<Points><Foo>"), "</foo>");

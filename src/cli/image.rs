@@ -80,7 +80,7 @@ pub fn run(a: ImageArgs) -> Result<(), Failure> {
     if !a.quiet {
         println!("{}", out.report);
         for p in &a.outputs {
-            println!("wrote {}", p.display());
+            println!("wrote {}", output::describe(p));
         }
     }
     Ok(())

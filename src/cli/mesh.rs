@@ -781,7 +781,7 @@ pub fn run(args: MeshArgs) -> Result<(), Failure> {
     if !args.quiet {
         println!("{}", done.summary);
         for p in &job.outputs {
-            println!("wrote {}", p.display());
+            println!("wrote {}", output::describe(p));
         }
     }
     Ok(())

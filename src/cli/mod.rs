@@ -53,6 +53,21 @@ impl From<trussmesh::Error> for Failure {
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
+    /// Mesh files as text or binary (.vtu and .msh have both; other formats are text): auto
+    /// writes binary from 100,000 cells.
+    #[arg(long, global = true, value_enum, default_value_t = EncodingArg::Auto)]
+    pub encoding: EncodingArg,
+}
+
+/// The values of `--encoding`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EncodingArg {
+    /// Binary from 100,000 cells, text below.
+    Auto,
+    /// Text numbers.
+    Ascii,
+    /// Raw little-endian numbers (VTU appended data, Gmsh binary).
+    Binary,
 }
 
 #[derive(Subcommand, Debug)]
@@ -100,6 +115,11 @@ pub fn main() -> i32 {
 }
 
 fn run(cli: Cli) -> Result<(), Failure> {
+    output::set_encoding(match cli.encoding {
+        EncodingArg::Auto => trussmesh::io::Encoding::Auto,
+        EncodingArg::Ascii => trussmesh::io::Encoding::Ascii,
+        EncodingArg::Binary => trussmesh::io::Encoding::Binary,
+    });
     match cli.command {
         Command::Mesh(a) => mesh::run(a),
         Command::Stats(a) => stats::run(a),

@@ -95,7 +95,7 @@ pub fn run(a: RemeshArgs) -> Result<(), Failure> {
     if !a.quiet {
         println!("{}", out.report);
         for p in &a.outputs {
-            println!("wrote {}", p.display());
+            println!("wrote {}", output::describe(p));
         }
     }
     Ok(())

@@ -136,7 +136,7 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
     if !args.quiet {
         println!("{}", out.report);
         for p in &args.output {
-            println!("wrote {}", p.display());
+            println!("wrote {}", output::describe(p));
         }
     }
     Ok(())
@@ -267,7 +267,7 @@ fn run_bezier(path: &std::path::Path, h0: f64, args: &SurfaceArgs, budget: &Budg
             start.elapsed().as_secs_f64()
         );
         for p in &args.output {
-            println!("wrote {}", p.display());
+            println!("wrote {}", output::describe(p));
         }
     }
     Ok(())

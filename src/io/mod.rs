@@ -46,15 +46,18 @@ impl MeshData {
     }
 }
 
+mod binary;
 pub mod check;
 mod json;
 mod medit;
 mod msh;
+mod msh_binary;
 pub mod picture;
 mod surface;
 mod text;
 mod vtu;
 
+pub use binary::Encoding;
 pub use check::{check_mesh, MeshCheck, Problem, ProblemKind};
 pub use picture::{png_bytes, svg_bytes, write_png, write_svg};
 
@@ -67,9 +70,9 @@ use std::path::Path;
 pub enum Format {
     /// Our own JSON layout (`.json`).
     Json,
-    /// VTK XML unstructured grid with ASCII arrays (`.vtu`).
+    /// VTK XML unstructured grid (`.vtu`), ASCII or appended raw binary arrays.
     Vtu,
-    /// Gmsh 4.1 ASCII (`.msh`).
+    /// Gmsh 4.1 (`.msh`), ASCII or binary.
     Msh,
     /// Medit / mmg (`.mesh`).
     Medit,
@@ -97,6 +100,11 @@ impl Format {
             Format::Stl => "stl",
             Format::Ply => "ply",
         }
+    }
+
+    /// Whether the format has a binary form ([`Encoding::Binary`] applies).
+    pub fn has_binary(self) -> bool {
+        matches!(self, Format::Vtu | Format::Msh)
     }
 
     /// The format a path's extension names (case-insensitive).
@@ -189,10 +197,16 @@ pub fn read_mesh(path: &Path) -> Result<MeshData, Error> {
     read_named(&bytes, format, &path.display().to_string())
 }
 
-/// Writes a mesh file, choosing the format from the extension.
+/// Writes a mesh file, choosing the format from the extension and the encoding by size
+/// ([`Encoding::Auto`]).
 pub fn write_mesh(path: &Path, mesh: &MeshData) -> Result<(), Error> {
+    write_mesh_with(path, mesh, Encoding::Auto)
+}
+
+/// Writes a mesh file in the format the extension names and the given encoding.
+pub fn write_mesh_with(path: &Path, mesh: &MeshData, encoding: Encoding) -> Result<(), Error> {
     let format = Format::from_path(path)?;
-    let bytes = write_mesh_bytes(mesh, format)?;
+    let bytes = write_mesh_bytes_with(mesh, format, encoding)?;
     write_file(path, &bytes)
 }
 
@@ -238,12 +252,27 @@ pub fn read_mesh_bytes(bytes: &[u8], format: Format) -> Result<MeshData, Error> 
     read_named(bytes, format, "<memory>")
 }
 
-/// Writes a mesh to memory in the given format.
+/// Writes a mesh to memory in the given format, the encoding chosen by size
+/// ([`Encoding::Auto`]).
 pub fn write_mesh_bytes(mesh: &MeshData, format: Format) -> Result<Vec<u8>, Error> {
+    write_mesh_bytes_with(mesh, format, Encoding::Auto)
+}
+
+/// Writes a mesh to memory in the given format and encoding. [`Encoding::Binary`] for a
+/// format without a binary form is an error; [`Encoding::Auto`] then writes text.
+pub fn write_mesh_bytes_with(mesh: &MeshData, format: Format, encoding: Encoding) -> Result<Vec<u8>, Error> {
     mesh.validate()?;
+    if encoding == Encoding::Binary && !format.has_binary() {
+        return Err(Error::Invalid(format!(
+            "the .{} format has no binary form (binary output: .vtu or .msh)",
+            format.extension()
+        )));
+    }
+    let binary = format.has_binary() && encoding.is_binary(mesh.num_cells());
     let s = match format {
         Format::Json => json::write(mesh),
-        Format::Vtu => vtu::write(mesh),
+        Format::Vtu => return Ok(vtu::write(mesh, binary)),
+        Format::Msh if binary => return Ok(msh_binary::write(mesh)),
         Format::Msh => msh::write(mesh),
         Format::Medit => medit::write(mesh),
         Format::Obj => surface::write_obj(mesh),
@@ -254,22 +283,28 @@ pub fn write_mesh_bytes(mesh: &MeshData, format: Format) -> Result<Vec<u8>, Erro
 }
 
 fn read_named(bytes: &[u8], format: Format, name: &str) -> Result<MeshData, Error> {
-    let s = std::str::from_utf8(bytes).map_err(|e| {
-        let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
-        Error::Parse {
-            path: name.to_string(),
-            line,
-            message: "the file is not UTF-8 text (binary files are not supported)".into(),
-        }
-    })?;
     let m = match format {
-        Format::Json => json::read(s, name)?,
-        Format::Vtu => vtu::read(s, name)?,
-        Format::Msh => msh::read(s, name)?,
-        Format::Medit => medit::read(s, name)?,
-        Format::Obj => surface::read_obj(s, name)?,
-        Format::Stl => surface::read_stl(s, name)?,
-        Format::Ply => surface::read_ply(s, name)?,
+        Format::Vtu => vtu::read(bytes, name)?,
+        Format::Msh if msh_binary::is_binary(bytes) => msh_binary::read(bytes, name)?,
+        _ => {
+            let s = std::str::from_utf8(bytes).map_err(|e| {
+                let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
+                Error::Parse {
+                    path: name.to_string(),
+                    line,
+                    message: format!("the file is not UTF-8 text (the .{} reader takes text)", format.extension()),
+                }
+            })?;
+            match format {
+                Format::Json => json::read(s, name)?,
+                Format::Vtu => vtu::read(bytes, name)?,
+                Format::Msh => msh::read(s, name)?,
+                Format::Medit => medit::read(s, name)?,
+                Format::Obj => surface::read_obj(s, name)?,
+                Format::Stl => surface::read_stl(s, name)?,
+                Format::Ply => surface::read_ply(s, name)?,
+            }
+        }
     };
     // Readers check as they go; this catches anything they missed, still as a parse error.
     m.validate().map_err(|e| Error::Parse { path: name.to_string(), line: 0, message: e.to_string() })?;

@@ -7,7 +7,7 @@ use crate::Error;
 use std::collections::{BTreeMap, HashMap};
 
 /// Nodes per element for the Gmsh element types we may meet (so unknown blocks can be skipped).
-fn nodes_of_type(t: i64) -> Option<usize> {
+pub(super) fn nodes_of_type(t: i64) -> Option<usize> {
     Some(match t {
         15 => 1,
         1 => 2,
@@ -212,11 +212,28 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
     if !saw_format {
         return Err(t.err_at(last, "empty file: no $MeshFormat"));
     }
+    assemble(Parsed { names, entity_phys, points, elems }, |m| t.err_at(last, m))
+}
+
+/// What a reader (text or binary) collects before the cells are put in order.
+pub(super) struct Parsed {
+    /// Physical names by (dimension, tag).
+    pub names: HashMap<(i64, i64), String>,
+    /// The first physical tag of each (dimension, entity tag).
+    pub entity_phys: HashMap<(i64, i64), i64>,
+    pub points: Vec<[f64; 3]>,
+    /// (element tag, type, nodes, entity dim, entity tag) of the triangles and tetrahedra.
+    pub elems: Vec<(i64, i64, Vec<usize>, i64, i64)>,
+}
+
+/// Keeps the highest-dimensional cells in element-tag order with their subdomain labels.
+pub(super) fn assemble(p: Parsed, err: impl Fn(String) -> Error) -> Result<MeshData, Error> {
+    let Parsed { names, entity_phys, mut points, elems } = p;
     let want = if elems.iter().any(|e| e.1 == 4) { 4 } else { 2 };
     let cell_type = if want == 4 { CellType::Tetra } else { CellType::Triangle };
     let mut kept: Vec<_> = elems.into_iter().filter(|e| e.1 == want).collect();
     if kept.is_empty() {
-        return Err(t.err_at(last, "no triangles (type 2) or tetrahedra (type 4) in the file"));
+        return Err(err("no triangles (type 2) or tetrahedra (type 4) in the file".into()));
     }
     // Element tags give the cell order (our writer groups cells by subdomain).
     kept.sort_by_key(|e| e.0);
@@ -235,8 +252,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                 *etag
             }
         };
-        let label = i32::try_from(label)
-            .map_err(|_| t.err_at(last, format!("subdomain tag {label} does not fit in 32 bits")))?;
+        let label = i32::try_from(label).map_err(|_| err(format!("subdomain tag {label} does not fit in 32 bits")))?;
         labels.push(label);
     }
     let plain = plain && labels.iter().all(|&l| l == labels[0]);
@@ -244,7 +260,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
     Ok(MeshData { dim, cell_type, points, cells, subdomain: if plain { None } else { Some(labels) } })
 }
 
-fn bbox<'a>(pts: impl Iterator<Item = &'a [f64; 3]>) -> String {
+fn bbox<'a>(pts: impl Iterator<Item = &'a [f64; 3]>) -> [f64; 6] {
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     for p in pts {
@@ -257,48 +273,82 @@ fn bbox<'a>(pts: impl Iterator<Item = &'a [f64; 3]>) -> String {
         lo = [0.0; 3];
         hi = [0.0; 3];
     }
-    let v: Vec<String> = lo.iter().chain(&hi).map(|&x| fmt_f64(x)).collect();
-    v.join(" ")
+    [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]]
+}
+
+/// What both writers emit: cells grouped by label (entity tags 1.. in label order) and the
+/// boundary facets as one more entity.
+pub(super) struct Plan {
+    /// Dimension of the cells (2 or 3).
+    pub cdim: usize,
+    /// Gmsh element types of the cells and of the boundary facets.
+    pub cty: i32,
+    pub fty: i32,
+    pub groups: BTreeMap<i32, Vec<usize>>,
+    pub bnd: Vec<Vec<usize>>,
+}
+
+impl Plan {
+    pub fn new(m: &MeshData) -> Plan {
+        let cdim = if m.cell_type == CellType::Tetra { 3 } else { 2 };
+        let (cty, fty) = if cdim == 3 { (4, 2) } else { (2, 1) };
+        let mut groups: BTreeMap<i32, Vec<usize>> = BTreeMap::new();
+        for i in 0..m.num_cells() {
+            let l = m.subdomain.as_ref().map_or(1, |s| s[i]);
+            groups.entry(l).or_default().push(i);
+        }
+        Plan { cdim, cty, fty, groups, bnd: m.boundary_facets() }
+    }
+
+    /// The $PhysicalNames section (text in both forms).
+    pub fn physical_names(&self, m: &MeshData) -> String {
+        let mut s = String::from("$PhysicalNames\n");
+        s.push_str(&format!("{}\n", self.groups.len() + usize::from(!self.bnd.is_empty())));
+        if !self.bnd.is_empty() {
+            s.push_str(&format!("{} 1 \"boundary\"\n", self.cdim - 1));
+        }
+        for &l in self.groups.keys() {
+            if m.subdomain.is_some() {
+                s.push_str(&format!("{} {l} \"subdomain_{l}\"\n", self.cdim));
+            } else {
+                s.push_str(&format!("{} {l} \"{PLAIN}\"\n", self.cdim));
+            }
+        }
+        s.push_str("$EndPhysicalNames\n");
+        s
+    }
+
+    /// The entities: (dimension, tag, bounding box, physical tag), boundary first.
+    pub fn entities(&self, m: &MeshData) -> Vec<(usize, i32, [f64; 6], i32)> {
+        let mut v = Vec::new();
+        if !self.bnd.is_empty() {
+            v.push((self.cdim - 1, 1, bbox(self.bnd.iter().flatten().map(|&i| &m.points[i])), 1));
+        }
+        for (e, (&l, cs)) in self.groups.iter().enumerate() {
+            let bb = bbox(cs.iter().flat_map(|&c| m.cell(c)).map(|&i| &m.points[i]));
+            v.push((self.cdim, e as i32 + 1, bb, l));
+        }
+        v
+    }
 }
 
 pub(crate) fn write(m: &MeshData) -> String {
     let n = m.num_cells();
-    let cdim = if m.cell_type == CellType::Tetra { 3 } else { 2 };
-    let (cty, fty) = if cdim == 3 { (4, 2) } else { (2, 1) };
-    // Cells grouped by label; entity tags 1.. in label order.
-    let mut groups: BTreeMap<i32, Vec<usize>> = BTreeMap::new();
-    for i in 0..n {
-        let l = m.subdomain.as_ref().map_or(1, |s| s[i]);
-        groups.entry(l).or_default().push(i);
-    }
-    let bnd = m.boundary_facets();
+    let plan = Plan::new(m);
+    let Plan { cdim, cty, fty, ref groups, ref bnd } = plan;
     let mut s = String::with_capacity(64 * (m.points.len() + n + bnd.len()) + 1024);
-    s.push_str("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$PhysicalNames\n");
-    s.push_str(&format!("{}\n", groups.len() + usize::from(!bnd.is_empty())));
-    if !bnd.is_empty() {
-        s.push_str(&format!("{} 1 \"boundary\"\n", cdim - 1));
-    }
-    for &l in groups.keys() {
-        if m.subdomain.is_some() {
-            s.push_str(&format!("{cdim} {l} \"subdomain_{l}\"\n"));
-        } else {
-            s.push_str(&format!("{cdim} {l} \"{PLAIN}\"\n"));
-        }
-    }
-    s.push_str("$EndPhysicalNames\n$Entities\n");
+    s.push_str("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n");
+    s.push_str(&plan.physical_names(m));
+    s.push_str("$Entities\n");
+    let entities = plan.entities(m);
     let mut counts = [0usize; 4];
-    counts[cdim] = groups.len();
-    if !bnd.is_empty() {
-        counts[cdim - 1] = 1;
+    for e in &entities {
+        counts[e.0] += 1;
     }
     s.push_str(&format!("{} {} {} {}\n", counts[0], counts[1], counts[2], counts[3]));
-    if !bnd.is_empty() {
-        let bb = bbox(bnd.iter().flatten().map(|&v| &m.points[v]));
-        s.push_str(&format!("1 {bb} 1 1 0\n"));
-    }
-    for (e, (l, cs)) in groups.iter().enumerate() {
-        let bb = bbox(cs.iter().flat_map(|&c| m.cell(c)).map(|&v| &m.points[v]));
-        s.push_str(&format!("{} {bb} 1 {l} 0\n", e + 1));
+    for (_, tag, bb, phys) in &entities {
+        let bb: Vec<String> = bb.iter().map(|&x| fmt_f64(x)).collect();
+        s.push_str(&format!("{tag} {} 1 {phys} 0\n", bb.join(" ")));
     }
     s.push_str("$EndEntities\n$Nodes\n");
     let np = m.points.len();

@@ -1,19 +1,17 @@
-//! VTK XML unstructured grid (.vtu) with ASCII data arrays: readable by people, ParaView and meshio.
+//! VTK XML unstructured grid (.vtu): ASCII data arrays (readable by people), or raw binary
+//! arrays appended after the XML (exact and fast); ParaView and meshio read both. The reader
+//! also takes VTK's inline base64 arrays and base64 appended data.
 
-use super::text::{fmt_f64, perr, settle_dim, Tokens};
+mod decode;
+mod write;
+
+use super::text::{perr, settle_dim, Tokens};
 use super::{CellType, MeshData};
+use decode::{split_appended, Array, Layout, Stored};
+pub(crate) use write::write;
 use crate::Error;
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::Reader;
-
-/// One ASCII data array as found in the file.
-struct Array {
-    parent: String,
-    name: String,
-    components: usize,
-    text: String,
-    line: usize,
-}
 
 /// Counts newlines incrementally so byte offsets turn into line numbers in linear time.
 struct LineCounter<'a> {
@@ -44,7 +42,10 @@ fn local(e: &BytesStart) -> String {
     String::from_utf8_lossy(e.local_name().as_ref()).into_owned()
 }
 
-pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
+pub(crate) fn read(bytes: &[u8], path: &str) -> Result<MeshData, Error> {
+    let (xml, appended) = split_appended(bytes, path)?;
+    let s = xml.as_str();
+    let mut layout = Layout { header_bytes: 4, big_endian: false, appended, path };
     let mut r = Reader::from_str(s);
     let mut lc = LineCounter { s: s.as_bytes(), pos: 0, line: 1 };
     let mut stack: Vec<String> = Vec::new();
@@ -74,6 +75,16 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                     if attr(&e, "compressor").is_some() {
                         return Err(perr(path, line, "compressed vtu data not supported"));
                     }
+                    layout.header_bytes = match attr(&e, "header_type").as_deref() {
+                        None | Some("UInt32") => 4,
+                        Some("UInt64") => 8,
+                        Some(h) => return Err(perr(path, line, format!("header_type {h:?} is not UInt32 or UInt64"))),
+                    };
+                    layout.big_endian = match attr(&e, "byte_order").as_deref() {
+                        None | Some("LittleEndian") => false,
+                        Some("BigEndian") => true,
+                        Some(b) => return Err(perr(path, line, format!("byte_order {b:?} is not known"))),
+                    };
                 }
                 "Piece" => {
                     pieces += 1;
@@ -87,21 +98,21 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                     };
                     header = Some((num("NumberOfPoints")?, num("NumberOfCells")?, line));
                 }
-                "AppendedData" => {
-                    return Err(perr(path, line, "binary/appended vtu data not supported"));
-                }
                 "DataArray" => {
                     if current.is_some() {
                         return Err(perr(path, line, "DataArray nested inside DataArray"));
                     }
                     let format = attr(&e, "format").unwrap_or_else(|| "ascii".into());
-                    if format != "ascii" {
-                        return Err(perr(
-                            path,
-                            line,
-                            format!("binary/appended vtu data not supported (DataArray format={format:?})"),
-                        ));
-                    }
+                    let stored = match format.as_str() {
+                        "ascii" => Stored::Ascii,
+                        "binary" => Stored::Base64,
+                        "appended" => Stored::Appended(
+                            attr(&e, "offset")
+                                .and_then(|v| v.trim().parse::<usize>().ok())
+                                .ok_or_else(|| perr(path, line, "an appended DataArray needs a valid offset"))?,
+                        ),
+                        f => return Err(perr(path, line, format!("DataArray format {f:?} is not known"))),
+                    };
                     let components = match attr(&e, "NumberOfComponents") {
                         None => 1,
                         Some(v) => v
@@ -117,6 +128,8 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                         components,
                         text: String::new(),
                         line,
+                        stored,
+                        vtk_type: attr(&e, "type").unwrap_or_default(),
                     };
                     if empty {
                         arrays.push(a);
@@ -154,7 +167,7 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
                 }
             }
             Event::CData(_) if current.is_some() => {
-                return Err(perr(path, line, "binary/appended vtu data not supported (CDATA)"));
+                return Err(perr(path, line, "CDATA in a DataArray is not supported"));
             }
             Event::Eof => break,
             _ => {}
@@ -177,25 +190,30 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
     if pa.components != 3 {
         return Err(perr(path, pa.line, "Points must have NumberOfComponents=\"3\""));
     }
-    let mut t = Tokens::new(&pa.text, path, None, pa.line);
-    if t.remaining() != 3 * npts.min(usize::MAX / 3) {
+    let coords = if pa.stored == Stored::Ascii {
+        let mut t = Tokens::new(&pa.text, path, None, pa.line);
+        let mut v = Vec::with_capacity(t.remaining());
+        while t.peek().is_some() {
+            v.push(t.f64("point coordinate")?);
+        }
+        v
+    } else {
+        layout.floats(pa)?
+    };
+    if coords.len() != 3 * npts.min(usize::MAX / 3) {
         return Err(perr(
             path,
             pa.line,
-            format!(
-                "Points holds {} numbers but NumberOfPoints={npts} needs {}",
-                t.remaining(),
-                npts.saturating_mul(3)
-            ),
+            format!("Points holds {} numbers but NumberOfPoints={npts} needs {}", coords.len(), npts.saturating_mul(3)),
         ));
     }
-    let mut points = Vec::with_capacity(npts);
-    for _ in 0..npts {
-        points.push([t.f64("point x")?, t.f64("point y")?, t.f64("point z")?]);
-    }
+    let mut points: Vec<[f64; 3]> = coords.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
 
     // Cells.
     let ints = |a: &Array, what: &str| -> Result<Vec<(i64, usize)>, Error> {
+        if a.stored != Stored::Ascii {
+            return Ok(layout.ints(a)?.into_iter().map(|v| (v, a.line)).collect());
+        }
         let mut t = Tokens::new(&a.text, path, None, a.line);
         let mut v = Vec::with_capacity(t.remaining());
         while t.peek().is_some() {
@@ -266,6 +284,21 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
     let sa = ["subdomain", "gmsh:physical", "medit:ref"].iter().find_map(|n| find("CellData", Some(n)));
     let subdomain = match sa {
         None => None,
+        Some(a) if a.stored != Stored::Ascii => {
+            let all = layout.ints(a)?;
+            if a.components != 1 || all.len() != ncells {
+                return Err(perr(
+                    path,
+                    a.line,
+                    format!("CellData {:?} holds {} values for {ncells} cells", a.name, all.len()),
+                ));
+            }
+            let label = |i: usize| {
+                i32::try_from(all[i])
+                    .map_err(|_| perr(path, a.line, format!("subdomain label {} is not a 32-bit integer", all[i])))
+            };
+            Some(kept.iter().map(|&i| label(i)).collect::<Result<Vec<i32>, Error>>()?)
+        }
         Some(a) => {
             let mut t = Tokens::new(&a.text, path, None, a.line);
             if a.components != 1 || t.remaining() != ncells {
@@ -295,47 +328,3 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
     Ok(MeshData { dim, cell_type, points, cells, subdomain })
 }
 
-pub(crate) fn write(m: &MeshData) -> String {
-    let n = m.num_cells();
-    let k = m.cell_type.nodes();
-    let mut s = String::with_capacity(64 * (m.points.len() + n) + 1024);
-    s.push_str("<?xml version=\"1.0\"?>\n");
-    s.push_str(
-        "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
-    );
-    s.push_str("  <UnstructuredGrid>\n");
-    s.push_str(&format!("    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{n}\">\n", m.points.len()));
-    s.push_str("      <Points>\n        <DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" format=\"ascii\">\n");
-    for p in &m.points {
-        s.push_str(&format!("          {} {} {}\n", fmt_f64(p[0]), fmt_f64(p[1]), fmt_f64(p[2])));
-    }
-    s.push_str("        </DataArray>\n      </Points>\n      <Cells>\n");
-    s.push_str("        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n");
-    for i in 0..n {
-        let c: Vec<String> = m.cell(i).iter().map(|v| v.to_string()).collect();
-        s.push_str(&format!("          {}\n", c.join(" ")));
-    }
-    s.push_str("        </DataArray>\n        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n");
-    push_wrapped(&mut s, (1..=n).map(|i| (i * k).to_string()));
-    s.push_str("        </DataArray>\n        <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n");
-    let ty = if m.cell_type == CellType::Tetra { "10" } else { "5" };
-    push_wrapped(&mut s, (0..n).map(|_| ty.to_string()));
-    s.push_str("        </DataArray>\n      </Cells>\n");
-    if let Some(sd) = &m.subdomain {
-        s.push_str("      <CellData Scalars=\"subdomain\">\n        <DataArray type=\"Int32\" Name=\"subdomain\" format=\"ascii\">\n");
-        push_wrapped(&mut s, sd.iter().map(|v| v.to_string()));
-        s.push_str("        </DataArray>\n      </CellData>\n");
-    }
-    s.push_str("    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
-    s
-}
-
-/// Twenty numbers a line keeps long arrays readable.
-fn push_wrapped(s: &mut String, items: impl Iterator<Item = String>) {
-    let items: Vec<String> = items.collect();
-    for chunk in items.chunks(20) {
-        s.push_str("          ");
-        s.push_str(&chunk.join(" "));
-        s.push('\n');
-    }
-}
