@@ -329,9 +329,10 @@ impl Spec {
         }
         if dim == 3 {
             for p in &self.outputs {
-                if matches!(output::extension(p).as_str(), "svg" | "png" | "obj" | "stl" | "ply") {
+                if matches!(output::extension(p).as_str(), "obj" | "stl" | "ply") {
                     return Err(Failure::bad(format!(
-                        "{} cannot hold tetrahedra; use .vtu, .msh, .mesh or .json with --dim 3",
+                        "{} cannot hold tetrahedra; use .vtu, .msh, .mesh or .json with --dim 3 (or .svg, .png \
+                         for a cut-away picture)",
                         p.display()
                     )));
                 }
@@ -767,9 +768,11 @@ fn mesh3(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
     Ok(Meshed { mesh, report: out.report.map_quality(|_| ()), summary })
 }
 
-/// Writes one output: a mesh file, or a picture for .svg and .png (whole or not at all).
-pub fn write_output(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Failure> {
-    output::write_one(path, mesh, title)
+/// Writes one output: a mesh file, or a picture for .svg and .png (whole or not at all),
+/// coloured by the metric quality when the job has a metric.
+pub fn write_output(job: &Job, path: &Path, mesh: &MeshData, title: &str) -> Result<(), Failure> {
+    let measure = job.metric.as_ref().map(|abc| output::metric_measure(mesh, abc));
+    output::write_one_by(path, mesh, title, measure.as_ref())
 }
 
 /// `trussmesh mesh`.
@@ -777,7 +780,8 @@ pub fn run(args: MeshArgs) -> Result<(), Failure> {
     let job = args.spec()?.resolve()?;
     let done = job.mesh(args.quiet)?;
     let title = job.domain.source().to_string();
-    output::write_all(&job.outputs, &done.mesh, &title)?;
+    let measure = job.metric.as_ref().map(|abc| output::metric_measure(&done.mesh, abc));
+    output::write_all_by(&job.outputs, &done.mesh, &title, measure.as_ref())?;
     if !args.quiet {
         println!("{}", done.summary);
         for p in &job.outputs {

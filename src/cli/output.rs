@@ -3,7 +3,9 @@
 
 use super::Failure;
 use std::path::{Path, PathBuf};
-use trussmesh::io::{Format, MeshData};
+use trussmesh::expr::Expr;
+use trussmesh::io::{Format, Measure, MeshData};
+use trussmesh::mesher::Metric2;
 
 const PICTURES: [&str; 2] = ["svg", "png"];
 
@@ -90,18 +92,30 @@ pub fn check_all(paths: &[PathBuf]) -> Result<(), Failure> {
     paths.iter().try_for_each(|p| check_writable(p))
 }
 
-/// The bytes of one output: a mesh file, or a picture for .svg and .png.
-fn render(path: &Path, mesh: &MeshData, title: &str) -> Result<Vec<u8>, trussmesh::Error> {
+/// The bytes of one output: a mesh file, or a picture for .svg and .png coloured by `measure`
+/// (by default q, or the smallest dihedral angle for tetrahedra).
+fn render(path: &Path, mesh: &MeshData, title: &str, measure: Option<&Measure>) -> Result<Vec<u8>, trussmesh::Error> {
+    let by = || measure.cloned().unwrap_or_else(|| Measure::default_for(mesh));
     match extension(path).as_str() {
-        "svg" => trussmesh::io::svg_bytes(mesh, title),
-        "png" => trussmesh::io::png_bytes(mesh, title, 1200),
+        "svg" => trussmesh::io::svg_bytes_by(mesh, title, &by()),
+        "png" => trussmesh::io::png_bytes_by(mesh, title, &by(), 1200),
         _ => trussmesh::io::write_mesh_bytes(mesh, Format::from_path(path)?),
     }
 }
 
-/// Writes one output whole or not at all, making its directory.
-pub fn write_one(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Failure> {
-    let bytes = render(path, mesh, title)?;
+/// The metric quality of a planar mesh for the metric "A;B;C" given as three expressions:
+/// what pictures of anisotropic meshes are coloured by.
+pub fn metric_measure(mesh: &MeshData, abc: &[Expr; 3]) -> Measure {
+    Measure::metric_q(mesh, &|p| {
+        let [a, b, c] = abc.each_ref().map(|e| e.eval(p.x, p.y, 0.0));
+        Metric2::new(a, b, c)
+    })
+}
+
+/// Writes one output whole or not at all, making its directory; pictures are coloured by
+/// `measure` (None: the default).
+pub fn write_one_by(path: &Path, mesh: &MeshData, title: &str, measure: Option<&Measure>) -> Result<(), Failure> {
+    let bytes = render(path, mesh, title, measure)?;
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
             std::fs::create_dir_all(dir)
@@ -119,10 +133,15 @@ pub fn write_one(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Failur
 /// Writes every output; one that fails does not stop the others, and the error names each
 /// failed one (and the ones written).
 pub fn write_all(paths: &[PathBuf], mesh: &MeshData, title: &str) -> Result<(), Failure> {
+    write_all_by(paths, mesh, title, None)
+}
+
+/// [`write_all`] with pictures coloured by `measure` (None: the default).
+pub fn write_all_by(paths: &[PathBuf], mesh: &MeshData, title: &str, measure: Option<&Measure>) -> Result<(), Failure> {
     let mut failed: Vec<Failure> = Vec::new();
     let mut written = Vec::new();
     for p in paths {
-        match write_one(p, mesh, title) {
+        match write_one_by(p, mesh, title, measure) {
             Ok(()) => written.push(p.display().to_string()),
             Err(f) => failed.push(f),
         }

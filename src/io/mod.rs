@@ -47,7 +47,9 @@ impl MeshData {
 }
 
 pub mod check;
+mod glyphs;
 mod json;
+pub mod measure;
 mod medit;
 mod msh;
 pub mod picture;
@@ -56,7 +58,8 @@ mod text;
 mod vtu;
 
 pub use check::{check_mesh, MeshCheck, Problem, ProblemKind};
-pub use picture::{png_bytes, svg_bytes, write_png, write_svg};
+pub use measure::Measure;
+pub use picture::{png_bytes, png_bytes_by, svg_bytes, svg_bytes_by, write_png, write_svg};
 
 use crate::Error;
 use std::collections::HashMap;
