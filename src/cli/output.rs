@@ -4,7 +4,7 @@
 use super::Failure;
 use std::path::{Path, PathBuf};
 use trussmesh::expr::Expr;
-use trussmesh::io::{Format, Measure, MeshData};
+use trussmesh::io::{Format, Measure, MeshData, NodeKind};
 use trussmesh::mesher::Metric2;
 
 const PICTURES: [&str; 2] = ["svg", "png"];
@@ -92,14 +92,23 @@ pub fn check_all(paths: &[PathBuf]) -> Result<(), Failure> {
     paths.iter().try_for_each(|p| check_writable(p))
 }
 
-/// The bytes of one output: a mesh file, or a picture for .svg and .png coloured by `measure`
-/// (by default q, or the smallest dihedral angle for tetrahedra).
-fn render(path: &Path, mesh: &MeshData, title: &str, measure: Option<&Measure>) -> Result<Vec<u8>, trussmesh::Error> {
-    let by = || measure.cloned().unwrap_or_else(|| Measure::default_for(mesh));
+/// What a run knows beyond the mesh, for its outputs.
+#[derive(Default, Clone, Copy)]
+pub struct Extras<'a> {
+    /// What pictures are coloured by (None: q, or the smallest dihedral angle for tetrahedra).
+    pub measure: Option<&'a Measure>,
+    /// The kind of every node, for the .vtu point data (None: interior or boundary from the
+    /// boundary facets).
+    pub node_kind: Option<&'a [NodeKind]>,
+}
+
+/// The bytes of one output: a mesh file, or a picture for .svg and .png.
+fn render(path: &Path, mesh: &MeshData, title: &str, extras: Extras) -> Result<Vec<u8>, trussmesh::Error> {
+    let by = || extras.measure.cloned().unwrap_or_else(|| Measure::default_for(mesh));
     match extension(path).as_str() {
         "svg" => trussmesh::io::svg_bytes_by(mesh, title, &by()),
         "png" => trussmesh::io::png_bytes_by(mesh, title, &by(), 1200),
-        _ => trussmesh::io::write_mesh_bytes(mesh, Format::from_path(path)?),
+        _ => trussmesh::io::write_mesh_bytes_with(mesh, Format::from_path(path)?, extras.node_kind),
     }
 }
 
@@ -112,10 +121,9 @@ pub fn metric_measure(mesh: &MeshData, abc: &[Expr; 3]) -> Measure {
     })
 }
 
-/// Writes one output whole or not at all, making its directory; pictures are coloured by
-/// `measure` (None: the default).
-pub fn write_one_by(path: &Path, mesh: &MeshData, title: &str, measure: Option<&Measure>) -> Result<(), Failure> {
-    let bytes = render(path, mesh, title, measure)?;
+/// Writes one output whole or not at all, making its directory.
+pub fn write_one_by(path: &Path, mesh: &MeshData, title: &str, extras: Extras) -> Result<(), Failure> {
+    let bytes = render(path, mesh, title, extras)?;
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
             std::fs::create_dir_all(dir)
@@ -133,15 +141,15 @@ pub fn write_one_by(path: &Path, mesh: &MeshData, title: &str, measure: Option<&
 /// Writes every output; one that fails does not stop the others, and the error names each
 /// failed one (and the ones written).
 pub fn write_all(paths: &[PathBuf], mesh: &MeshData, title: &str) -> Result<(), Failure> {
-    write_all_by(paths, mesh, title, None)
+    write_all_by(paths, mesh, title, Extras::default())
 }
 
-/// [`write_all`] with pictures coloured by `measure` (None: the default).
-pub fn write_all_by(paths: &[PathBuf], mesh: &MeshData, title: &str, measure: Option<&Measure>) -> Result<(), Failure> {
+/// [`write_all`] with what the run knows beyond the mesh.
+pub fn write_all_by(paths: &[PathBuf], mesh: &MeshData, title: &str, extras: Extras) -> Result<(), Failure> {
     let mut failed: Vec<Failure> = Vec::new();
     let mut written = Vec::new();
     for p in paths {
-        match write_one_by(p, mesh, title, measure) {
+        match write_one_by(p, mesh, title, extras) {
             Ok(()) => written.push(p.display().to_string()),
             Err(f) => failed.push(f),
         }

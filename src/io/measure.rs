@@ -39,6 +39,16 @@ pub fn triangle_q_values(m: &MeshData) -> Vec<f64> {
         .collect()
 }
 
+/// The radius ratio 3 r_in / r_out of every tetrahedron.
+pub fn tet_radius_ratio_values(m: &MeshData) -> Vec<f64> {
+    (0..m.num_cells())
+        .map(|i| {
+            let c = m.cell(i);
+            crate::quality::tet_radius_ratio([pt(m, c[0]), pt(m, c[1]), pt(m, c[2]), pt(m, c[3])])
+        })
+        .collect()
+}
+
 /// The smallest dihedral angle of every tetrahedron, in degrees.
 pub fn tet_min_dihedral_values(m: &MeshData) -> Vec<f64> {
     (0..m.num_cells())

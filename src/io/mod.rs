@@ -115,6 +115,23 @@ impl Format {
     }
 }
 
+/// What a node of a mesh is, as the .vtu point data `node_kind` records it (the number is the
+/// value written).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum NodeKind {
+    /// Free: moved by the bar forces alone.
+    Interior = 0,
+    /// On the boundary d = 0.
+    Boundary = 1,
+    /// Held where it is: a point given to be fixed.
+    Fixed = 2,
+    /// Held where it is: a sharp corner or a point on a sharp edge, found by the mesher.
+    Feature = 3,
+    /// On an internal boundary d_I = 0 (2-D).
+    Internal = 4,
+}
+
 impl MeshData {
     /// Checks the invariants every writer relies on, so a bad mesh fails before a file is half written.
     pub fn validate(&self) -> Result<(), Error> {
@@ -243,10 +260,21 @@ pub fn read_mesh_bytes(bytes: &[u8], format: Format) -> Result<MeshData, Error> 
 
 /// Writes a mesh to memory in the given format.
 pub fn write_mesh_bytes(mesh: &MeshData, format: Format) -> Result<Vec<u8>, Error> {
+    write_mesh_bytes_with(mesh, format, None)
+}
+
+/// [`write_mesh_bytes`] with the kind of every node (one per point), which .vtu files record
+/// as point data `node_kind` (the other formats have no place for it).
+pub fn write_mesh_bytes_with(mesh: &MeshData, format: Format, kinds: Option<&[NodeKind]>) -> Result<Vec<u8>, Error> {
     mesh.validate()?;
+    if let Some(k) = kinds {
+        if k.len() != mesh.points.len() {
+            return Err(Error::Invalid(format!("{} node kinds for {} points", k.len(), mesh.points.len())));
+        }
+    }
     let s = match format {
         Format::Json => json::write(mesh),
-        Format::Vtu => vtu::write(mesh),
+        Format::Vtu => vtu::write(mesh, kinds),
         Format::Msh => msh::write(mesh),
         Format::Medit => medit::write(mesh),
         Format::Obj => surface::write_obj(mesh),

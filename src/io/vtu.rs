@@ -1,7 +1,8 @@
 //! VTK XML unstructured grid (.vtu) with ASCII data arrays: readable by people, ParaView and meshio.
 
+use super::measure::{tet_min_dihedral_values, tet_radius_ratio_values, triangle_q_values};
 use super::text::{fmt_f64, perr, settle_dim, Tokens};
-use super::{CellType, MeshData};
+use super::{CellType, MeshData, NodeKind};
 use crate::Error;
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::Reader;
@@ -295,7 +296,11 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
     Ok(MeshData { dim, cell_type, points, cells, subdomain })
 }
 
-pub(crate) fn write(m: &MeshData) -> String {
+/// Writes the mesh with its cell data (quality: `q` for triangles, `radius_ratio` and
+/// `min_dihedral` in degrees for tetrahedra; `subdomain` when labelled) and its point data
+/// (`node_kind`: the given kinds, or for planar and tetrahedral meshes interior 0 / boundary 1
+/// from the boundary facets).
+pub(crate) fn write(m: &MeshData, kinds: Option<&[NodeKind]>) -> String {
     let n = m.num_cells();
     let k = m.cell_type.nodes();
     let mut s = String::with_capacity(64 * (m.points.len() + n) + 1024);
@@ -305,6 +310,24 @@ pub(crate) fn write(m: &MeshData) -> String {
     );
     s.push_str("  <UnstructuredGrid>\n");
     s.push_str(&format!("    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{n}\">\n", m.points.len()));
+    let derived;
+    let kinds = match kinds {
+        Some(k) if k.len() == m.points.len() => Some(k),
+        _ if m.dim == 2 || m.cell_type == CellType::Tetra => {
+            let mut d = vec![NodeKind::Interior; m.points.len()];
+            for v in m.boundary_facets().into_iter().flatten() {
+                d[v] = NodeKind::Boundary;
+            }
+            derived = d;
+            Some(derived.as_slice())
+        }
+        _ => None,
+    };
+    if let Some(kinds) = kinds {
+        s.push_str("      <PointData Scalars=\"node_kind\">\n        <DataArray type=\"UInt8\" Name=\"node_kind\" format=\"ascii\">\n");
+        push_wrapped(&mut s, kinds.iter().map(|&k| (k as u8).to_string()));
+        s.push_str("        </DataArray>\n      </PointData>\n");
+    }
     s.push_str("      <Points>\n        <DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" format=\"ascii\">\n");
     for p in &m.points {
         s.push_str(&format!("          {} {} {}\n", fmt_f64(p[0]), fmt_f64(p[1]), fmt_f64(p[2])));
@@ -321,11 +344,24 @@ pub(crate) fn write(m: &MeshData) -> String {
     let ty = if m.cell_type == CellType::Tetra { "10" } else { "5" };
     push_wrapped(&mut s, (0..n).map(|_| ty.to_string()));
     s.push_str("        </DataArray>\n      </Cells>\n");
-    if let Some(sd) = &m.subdomain {
-        s.push_str("      <CellData Scalars=\"subdomain\">\n        <DataArray type=\"Int32\" Name=\"subdomain\" format=\"ascii\">\n");
-        push_wrapped(&mut s, sd.iter().map(|v| v.to_string()));
-        s.push_str("        </DataArray>\n      </CellData>\n");
+    let quality: Vec<(&str, Vec<f64>)> = match m.cell_type {
+        CellType::Triangle => vec![("q", triangle_q_values(m))],
+        CellType::Tetra => {
+            vec![("radius_ratio", tet_radius_ratio_values(m)), ("min_dihedral", tet_min_dihedral_values(m))]
+        }
+    };
+    s.push_str(&format!("      <CellData Scalars=\"{}\">\n", quality[0].0));
+    for (name, values) in &quality {
+        s.push_str(&format!("        <DataArray type=\"Float64\" Name=\"{name}\" format=\"ascii\">\n"));
+        push_wrapped(&mut s, values.iter().map(|&v| fmt_f64(if v.is_finite() { v } else { 0.0 })));
+        s.push_str("        </DataArray>\n");
     }
+    if let Some(sd) = &m.subdomain {
+        s.push_str("        <DataArray type=\"Int32\" Name=\"subdomain\" format=\"ascii\">\n");
+        push_wrapped(&mut s, sd.iter().map(|v| v.to_string()));
+        s.push_str("        </DataArray>\n");
+    }
+    s.push_str("      </CellData>\n");
     s.push_str("    </Piece>\n  </UnstructuredGrid>\n</VTKFile>\n");
     s
 }
