@@ -68,31 +68,31 @@ pub struct MeshArgs {
     /// --no-sharp).
     #[arg(value_name = "SCENE.toml", conflicts_with_all = FLAGS)]
     pub scene: Option<PathBuf>,
-    /// Dimension.
+    /// Dimension [default: 2].
     #[arg(long, value_name = "2|3")]
     pub dim: Option<usize>,
     /// The domain d(x, y) < 0 (a signed distance unless --implicit).
-    #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
+    #[arg(long, value_name = "EXPR", allow_hyphen_values = true, required_unless_present = "scene")]
     pub domain: Option<String>,
     /// Relative size h(x, y) (only ratios matter; default uniform).
     #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
     pub size: Option<String>,
     /// Initial edge length (a constant expression such as 0.05/3).
-    #[arg(long, value_name = "H", allow_hyphen_values = true)]
+    #[arg(long, value_name = "H", allow_hyphen_values = true, required_unless_present = "scene")]
     pub h0: Option<String>,
     /// Bounding box: the minimum corner, then the maximum corner.
-    #[arg(long, value_name = "X0,Y0[,Z0],X1,Y1[,Z1]", allow_hyphen_values = true)]
+    #[arg(long, value_name = "X0,Y0[,Z0],X1,Y1[,Z1]", allow_hyphen_values = true, required_unless_present = "scene")]
     pub bbox: Option<String>,
     /// Fixed points, separated by ';'.
     #[arg(long, value_name = "x,y[,z];...", allow_hyphen_values = true)]
     pub fix: Option<String>,
-    /// Iteration cap.
+    /// Iteration cap of the force loop [default: 1000 in 2-D, 300 in 3-D].
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole_number::<usize>)]
     pub max_iter: Option<usize>,
-    /// Random seed.
+    /// Seed of every random choice (same input and seed: same mesh) [default: 0].
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole_number::<u64>)]
     pub seed: Option<u64>,
-    /// Boundary projection.
+    /// Boundary projection [default: auto].
     #[arg(long, value_enum)]
     pub projection: Option<ProjectionArg>,
     /// The domain is a level set, not a signed distance.
@@ -111,7 +111,7 @@ pub struct MeshArgs {
     #[arg(long)]
     pub no_sharp: bool,
     /// Output file; the extension picks the format (.json .vtu .msh .mesh .obj .stl .ply .svg .png).
-    #[arg(short = 'o', long = "output", value_name = "FILE")]
+    #[arg(short = 'o', long = "output", value_name = "FILE", required_unless_present = "scene")]
     pub output: Vec<PathBuf>,
     /// Memory budget (such as 2G or 500M; default a quarter of the machine's memory): a run
     /// whose estimate passes it is refused before meshing.
