@@ -12,6 +12,7 @@ mod sample;
 mod scene;
 mod stats;
 mod surface;
+mod surface_stats;
 
 use clap::{Parser, Subcommand};
 use std::panic::{catch_unwind, AssertUnwindSafe};
