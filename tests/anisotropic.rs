@@ -55,7 +55,10 @@ fn figure_3_6_boundary_layer() {
     if let Some(dir) = std::env::var_os("TRUSSMESH_TEST_PICTURES") {
         let data = trussmesh::io::MeshData::from_trimesh2(m);
         let path = std::path::Path::new(&dir).join("figure_3_6.png");
-        trussmesh::io::picture::write_png(&path, &data, "figure 3-6", 1600).expect("picture written");
+        // Coloured by the metric quality, the quality the mesh is made for.
+        let by = trussmesh::io::Measure::metric_q(&data, &figure_3_6_metric);
+        let png = trussmesh::io::png_bytes_by(&data, "figure 3-6", &by, 1600).expect("picture drawn");
+        trussmesh::io::write_file(&path, &png).expect("picture written");
         // A close-up of the boundary layer, stretched across the boundary (polar coordinates:
         // angle along, 20 (1 - r) across) so that its rows can be seen.
         let mut zoom = data.clone();

@@ -236,7 +236,7 @@ fn negative_h0() {
 
 #[test]
 fn other_bad_mesh_input() {
-    let a = ["mesh", "--dim", "3", "--domain", "x", "--h0", "0.1", "--bbox", "-1,-1,-1,1,1,1", "-o", "a.svg"];
+    let a = ["mesh", "--dim", "3", "--domain", "x", "--h0", "0.1", "--bbox", "-1,-1,-1,1,1,1", "-o", "a.obj"];
     bad(&a, &["cannot hold tetrahedra"]);
     let a = mesh_args("x", &["--h0", "0.1", "--bbox", "-1,-1,1,1", "--fix", "0,0,0"]);
     bad(&a, &["fixed point 1 has 3 coordinates"]);
@@ -245,7 +245,7 @@ fn other_bad_mesh_input() {
     let a = ["mesh", "--domain", "x", "--h0", "x", "--bbox", "-1,-1,1,1", "-o", "a.vtu"];
     bad(&a, &["must be a constant"]);
     let a = ["mesh", "--domain", "x", "--h0", "0.1", "--bbox", "-1,-1,1,1"];
-    bad(&a, &["no output file"]);
+    bad(&a, &["required arguments were not provided", "--output"]);
     let dir = tmp("scene");
     std::fs::write(dir.join("s.toml"), "domain = \"x\"\nh0 = -2\nbbox = [-1, -1, 1, 1]\noutput = [\"a.vtu\"]\n")
         .unwrap();

@@ -105,3 +105,35 @@ fn bad_input_exits_2() {
     assert_eq!(code, 2);
     assert!(err.contains("unknown output extension"), "{err}");
 }
+
+/// `stats` of a closed surface: its topology and the distance of every vertex to phi = 0, not
+/// a boundary fidelity (there is no boundary).
+#[test]
+fn stats_of_closed_surfaces() {
+    let d = tmp("stats");
+    let torus = "sqrt((sqrt(x^2+y^2)-1)^2+z^2)-0.4";
+    for (name, phi, bbox, chi, genus) in
+        [("sphere", SPHERE, BOX, 2, 0), ("torus", torus, "-1.5,-1.5,-0.6,1.5,1.5,0.6", 0, 1)]
+    {
+        let file = format!("{name}.obj");
+        let (code, _, err) = run(&d, &["surface", "--phi", phi, "--bbox", bbox, "--h0", "0.2", "-q", "-o", &file]);
+        assert_eq!(code, 0, "{err}");
+        let (code, out, err) = run(&d, &["stats", &file, "--domain", phi]);
+        assert_eq!(code, 0, "{err}");
+        println!("{name}:\n{out}");
+        assert!(!out.contains("boundary fidelity"), "{out}");
+        let want = format!("surface: closed, manifold, 1 component, Euler characteristic {chi}, genus {genus}");
+        assert!(out.contains(&want), "{name}: no {want:?} in\n{out}");
+        let (code, json, err) = run(&d, &["stats", &file, "--domain", phi, "--json"]);
+        assert_eq!(code, 0, "{err}");
+        let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+        let s = &v["surface"];
+        assert_eq!(s["euler_characteristic"], chi);
+        assert_eq!(s["genus"], genus);
+        assert_eq!(s["manifold"], true);
+        let dist = s["max_distance"].as_f64().unwrap();
+        // Every node is projected onto phi = 0 (to 1e-9 h0); OBJ keeps 17 digits.
+        assert!(dist < 1e-8, "{name}: a vertex lies {dist:e} from phi = 0");
+        assert!(v.get("boundary_max_abs_d").is_none());
+    }
+}

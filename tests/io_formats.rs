@@ -428,5 +428,22 @@ fn pictures() {
     }
     let empty = MeshData { dim: 2, cell_type: CellType::Triangle, points: vec![], cells: vec![], subdomain: None };
     assert!(trussmesh::io::write_png(&d.join("e.png"), &empty, "", 400).is_err());
+    // The PNG carries the SVG's text: with a title, the band above the drawing (the top 0.085
+    // of the width) holds ink, and the bottom rows (the summary line under the histogram, the
+    // last 0.05 of the width) too; without a title, the title band is blank.
+    let m = tets(true);
+    let dark_rows = |title: &str, from_top: bool, band: f32| {
+        let b = trussmesh::io::png_bytes(&m, title, 600).unwrap();
+        let pix = tiny_skia::Pixmap::decode_png(&b).unwrap();
+        let (w, h) = (pix.width() as usize, pix.height() as usize);
+        let rows = (band * w as f32) as usize;
+        let (y0, y1) = if from_top { (0, rows) } else { (h - rows, h) };
+        pix.data()[4 * w * y0..4 * w * y1].chunks(4).filter(|p| p[0] < 100 && p[1] < 100 && p[2] < 100).count()
+    };
+    let (titled, untitled) = (dark_rows("a titled tet", true, 0.085), dark_rows("", true, 0.085));
+    let summary = dark_rows("", false, 0.05);
+    println!("dark pixels: title band {titled} (untitled {untitled}), summary band {summary}");
+    assert!(titled > 150 && untitled == 0, "title band: {titled} dark pixels with a title, {untitled} without");
+    assert!(summary > 150, "summary band: {summary} dark pixels");
     std::fs::remove_dir_all(&d).ok();
 }

@@ -71,7 +71,7 @@ fn one(a: &GalleryArgs, ex: &trussmesh::gallery::Example) -> Result<String, Fail
     let job = args.spec()?.resolve()?;
     let done = job.mesh(true)?;
     for p in &job.outputs {
-        write_output(p, &done.mesh, &format!("{}: {}", ex.name, ex.title))?;
+        write_output(&job, p, &done, &format!("{}: {}", ex.name, ex.title))?;
     }
     let size = parse_expr("--size", ex.size.unwrap_or("1"))?;
     let s = compute(&done.mesh, Some((&job.domain, ex.implicit)), Some(&size))?;

@@ -13,22 +13,26 @@ pub struct ImageArgs {
     /// The PNG picture.
     pub file: PathBuf,
     /// Grey level in [0, 1] separating inside (brighter) from outside.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, value_name = "T", default_value_t = 0.5)]
     pub threshold: f64,
     /// Inside is darker than the threshold.
     #[arg(long)]
     pub invert: bool,
     /// Smallest edge length in pixels.
-    #[arg(long, default_value_t = 4.0)]
+    #[arg(long, value_name = "H", default_value_t = 4.0)]
     pub h0: f64,
-    /// Largest edge length over the smallest (the automatic size function grows to it).
-    #[arg(long, default_value_t = 4.0)]
-    pub max_ratio: f64,
+    /// Largest edge length in pixels (the automatic size function grows to it; --h0 gives
+    /// uniform elements) [default: 4 h0].
+    #[arg(long, value_name = "H")]
+    pub hmax: Option<f64>,
+    /// The old spelling: the largest edge length over the smallest.
+    #[arg(long, hide = true, conflicts_with = "hmax")]
+    pub max_ratio: Option<f64>,
     /// Output units per pixel (coordinates: origin at the top-left corner, x right, y down).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, value_name = "S", default_value_t = 1.0)]
     pub scale: f64,
     /// Output files; the extension picks the format (.vtu .msh .mesh .json .obj .stl .ply .svg .png).
-    #[arg(short = 'o', long = "output", required = true)]
+    #[arg(short = 'o', long = "output", value_name = "FILE", required = true)]
     pub outputs: Vec<PathBuf>,
     /// Memory budget (such as 2G or 500M; default a quarter of the machine's memory): a
     /// picture or a mesh whose estimate passes it is refused before the work.
@@ -57,8 +61,18 @@ pub fn run(a: ImageArgs) -> Result<(), Failure> {
     let bytes = std::fs::read(&a.file).map_err(|e| Failure::bad(format!("cannot read the picture {name}: {e}")))?;
     let (grey, w, h) = decode_png_grey(&bytes, &name)?;
     drop(bytes);
-    let opts =
-        ImageOptions { threshold: a.threshold, invert: a.invert, h0: a.h0, max_ratio: a.max_ratio, scale: a.scale };
+    let max_ratio = match (a.hmax, a.max_ratio) {
+        (Some(h), _) => h / a.h0,
+        (None, Some(r)) => r,
+        (None, None) => 4.0,
+    };
+    if let Some(h) = a.hmax.filter(|&h| a.h0 > 0.0 && !(h >= a.h0 && h.is_finite())) {
+        return Err(Failure::bad(format!(
+            "--hmax {h} must be finite and at least --h0 {} (the largest edge cannot be smaller than the smallest)",
+            a.h0
+        )));
+    }
+    let opts = ImageOptions { threshold: a.threshold, invert: a.invert, h0: a.h0, max_ratio, scale: a.scale };
     let check = |triangles: f64| {
         budget
             .check(

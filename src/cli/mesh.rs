@@ -1,8 +1,9 @@
 //! `trussmesh mesh`: flags or a TOML scene in, mesh files and pictures out.
 
 use super::budget::{self, Budget};
+use super::sample::DomainSample;
 pub use super::scene::{constant, parse_expr, scene_spec, split_top, whole_number};
-use super::{output, Failure};
+use super::{kinds, output, Failure};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Deserialize;
@@ -67,31 +68,31 @@ pub struct MeshArgs {
     /// --no-sharp).
     #[arg(value_name = "SCENE.toml", conflicts_with_all = FLAGS)]
     pub scene: Option<PathBuf>,
-    /// Dimension.
+    /// Dimension [default: 2].
     #[arg(long, value_name = "2|3")]
     pub dim: Option<usize>,
     /// The domain d(x, y) < 0 (a signed distance unless --implicit).
-    #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
+    #[arg(long, value_name = "EXPR", allow_hyphen_values = true, required_unless_present = "scene")]
     pub domain: Option<String>,
     /// Relative size h(x, y) (only ratios matter; default uniform).
     #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
     pub size: Option<String>,
     /// Initial edge length (a constant expression such as 0.05/3).
-    #[arg(long, value_name = "H", allow_hyphen_values = true)]
+    #[arg(long, value_name = "H", allow_hyphen_values = true, required_unless_present = "scene")]
     pub h0: Option<String>,
     /// Bounding box: the minimum corner, then the maximum corner.
-    #[arg(long, value_name = "X0,Y0[,Z0],X1,Y1[,Z1]", allow_hyphen_values = true)]
+    #[arg(long, value_name = "X0,Y0[,Z0],X1,Y1[,Z1]", allow_hyphen_values = true, required_unless_present = "scene")]
     pub bbox: Option<String>,
     /// Fixed points, separated by ';'.
     #[arg(long, value_name = "x,y[,z];...", allow_hyphen_values = true)]
     pub fix: Option<String>,
-    /// Iteration cap.
+    /// Iteration cap of the force loop [default: 1000 in 2-D, 300 in 3-D].
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole_number::<usize>)]
     pub max_iter: Option<usize>,
-    /// Random seed.
+    /// Seed of every random choice (same input and seed: same mesh) [default: 0].
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole_number::<u64>)]
     pub seed: Option<u64>,
-    /// Boundary projection.
+    /// Boundary projection [default: auto].
     #[arg(long, value_enum)]
     pub projection: Option<ProjectionArg>,
     /// The domain is a level set, not a signed distance.
@@ -110,7 +111,7 @@ pub struct MeshArgs {
     #[arg(long)]
     pub no_sharp: bool,
     /// Output file; the extension picks the format (.json .vtu .msh .mesh .obj .stl .ply .svg .png).
-    #[arg(short = 'o', long = "output", value_name = "FILE")]
+    #[arg(short = 'o', long = "output", value_name = "FILE", required_unless_present = "scene")]
     pub output: Vec<PathBuf>,
     /// Memory budget (such as 2G or 500M; default a quarter of the machine's memory): a run
     /// whose estimate passes it is refused before meshing.
@@ -165,6 +166,8 @@ pub struct Job {
 /// measured on its own); `summary` is the report as printed.
 pub struct Meshed {
     pub mesh: MeshData,
+    /// The kind of every node of `mesh`.
+    pub node_kind: Vec<trussmesh::io::NodeKind>,
     pub report: Report<()>,
     pub summary: String,
 }
@@ -329,9 +332,10 @@ impl Spec {
         }
         if dim == 3 {
             for p in &self.outputs {
-                if matches!(output::extension(p).as_str(), "svg" | "png" | "obj" | "stl" | "ply") {
+                if matches!(output::extension(p).as_str(), "obj" | "stl" | "ply") {
                     return Err(Failure::bad(format!(
-                        "{} cannot hold tetrahedra; use .vtu, .msh, .mesh or .json with --dim 3",
+                        "{} cannot hold tetrahedra; use .vtu, .msh, .mesh or .json with --dim 3 (or .svg, .png \
+                         for a cut-away picture)",
                         p.display()
                     )));
                 }
@@ -673,69 +677,6 @@ pub fn show_point(p: &[f64]) -> String {
     format!("({})", c.join(", "))
 }
 
-/// The domain sampled on a grid over the box: where it is inside, and the size there.
-struct DomainSample {
-    inside: usize,
-    lo: [f64; 3],
-    hi: [f64; 3],
-    step: [f64; 3],
-    h_min: f64,
-    h_max: f64,
-    h_max_at: [f64; 3],
-}
-
-impl DomainSample {
-    fn new(job: &Job) -> DomainSample {
-        let dim = job.dim;
-        let n = if dim == 3 { 64 } else { 400 };
-        let b = &job.bbox;
-        let mut step = [0.0; 3];
-        for k in 0..dim {
-            step[k] = (b[k + dim] - b[k]) / n as f64;
-        }
-        let mut s = DomainSample {
-            inside: 0,
-            lo: [f64::INFINITY; 3],
-            hi: [f64::NEG_INFINITY; 3],
-            step,
-            h_min: f64::INFINITY,
-            h_max: 0.0,
-            h_max_at: [0.0; 3],
-        };
-        let nz = if dim == 3 { n } else { 0 };
-        for kz in 0..=nz {
-            for j in 0..=n {
-                for i in 0..=n {
-                    let mut p = [b[0] + step[0] * i as f64, b[1] + step[1] * j as f64, 0.0];
-                    if dim == 3 {
-                        p[2] = b[2] + step[2] * kz as f64;
-                    }
-                    let d = job.domain.eval(p[0], p[1], p[2]);
-                    if d.is_nan() || d >= 0.0 {
-                        continue;
-                    }
-                    s.inside += 1;
-                    for (k, &x) in p.iter().enumerate().take(dim) {
-                        s.lo[k] = s.lo[k].min(x);
-                        s.hi[k] = s.hi[k].max(x);
-                    }
-                    if let Some(h) = &job.size {
-                        let v = h.eval(p[0], p[1], p[2]);
-                        if v.is_finite() && v > 0.0 {
-                            s.h_min = s.h_min.min(v);
-                            if v > s.h_max {
-                                s.h_max = v;
-                                s.h_max_at = p;
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        s
-    }
-}
-
 fn planar_data(out: &trussmesh::mesher::MeshOutput2) -> MeshData {
     MeshData::from_trimesh2(&out.mesh)
 }
@@ -745,8 +686,9 @@ fn mesh2(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
     let geom = job.geom2();
     let out = with_progress_bar(quiet, "iterations", |pb| mesh_2d(&geom, &job.options2(pb)))?;
     let mesh = planar_data(&out);
+    let node_kind = kinds::planar(&out.mesh, &job.fix, job.h0);
     let summary = out.report.to_string();
-    Ok(Meshed { mesh, report: out.report.map_quality(|_| ()), summary })
+    Ok(Meshed { mesh, node_kind, report: out.report.map_quality(|_| ()), summary })
 }
 
 /// 3-D meshing: tetrahedra, written as 3-D cells (.vtu, .msh, .mesh, .json).
@@ -763,13 +705,17 @@ fn mesh3(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
         cells: tets.iter().flatten().copied().collect(),
         subdomain,
     };
+    let node_kind = kinds::volume(&out.mesh, &job.fix, job.h0);
     let summary = out.report.to_string();
-    Ok(Meshed { mesh, report: out.report.map_quality(|_| ()), summary })
+    Ok(Meshed { mesh, node_kind, report: out.report.map_quality(|_| ()), summary })
 }
 
-/// Writes one output: a mesh file, or a picture for .svg and .png (whole or not at all).
-pub fn write_output(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Failure> {
-    output::write_one(path, mesh, title)
+/// Writes one output: a mesh file (with the node kinds), or a picture for .svg and .png
+/// coloured by the metric quality when the job has a metric (whole or not at all).
+pub fn write_output(job: &Job, path: &Path, done: &Meshed, title: &str) -> Result<(), Failure> {
+    let measure = job.metric.as_ref().map(|abc| output::metric_measure(&done.mesh, abc));
+    let extras = output::Extras { measure: measure.as_ref(), node_kind: Some(&done.node_kind) };
+    output::write_one_by(path, &done.mesh, title, extras)
 }
 
 /// `trussmesh mesh`.
@@ -777,7 +723,9 @@ pub fn run(args: MeshArgs) -> Result<(), Failure> {
     let job = args.spec()?.resolve()?;
     let done = job.mesh(args.quiet)?;
     let title = job.domain.source().to_string();
-    output::write_all(&job.outputs, &done.mesh, &title)?;
+    let measure = job.metric.as_ref().map(|abc| output::metric_measure(&done.mesh, abc));
+    let extras = output::Extras { measure: measure.as_ref(), node_kind: Some(&done.node_kind) };
+    output::write_all_by(&job.outputs, &done.mesh, &title, extras)?;
     if !args.quiet {
         println!("{}", done.summary);
         for p in &job.outputs {

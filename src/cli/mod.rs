@@ -4,12 +4,15 @@ mod budget;
 pub mod fuzz;
 mod gallery;
 mod image;
+mod kinds;
 mod mesh;
 mod output;
 mod remesh;
+mod sample;
 mod scene;
 mod stats;
 mod surface;
+mod surface_stats;
 
 use clap::{Parser, Subcommand};
 use std::panic::{catch_unwind, AssertUnwindSafe};

@@ -5,7 +5,9 @@ use super::Failure;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, OnceLock};
 use std::time::Instant;
-use trussmesh::io::{Encoding, Format, MeshData};
+use trussmesh::expr::Expr;
+use trussmesh::io::{Encoding, Format, Measure, MeshData, NodeKind, WriteOptions};
+use trussmesh::mesher::Metric2;
 
 /// The `--encoding` of this run (set once, before any output is written).
 static ENCODING: OnceLock<Encoding> = OnceLock::new();
@@ -112,29 +114,55 @@ pub fn check_all(paths: &[PathBuf]) -> Result<(), Failure> {
     paths.iter().try_for_each(|p| check_writable(p))
 }
 
+/// What a run knows beyond the mesh, for its outputs.
+#[derive(Default, Clone, Copy)]
+pub struct Extras<'a> {
+    /// What pictures are coloured by (None: q, or the smallest dihedral angle for tetrahedra).
+    pub measure: Option<&'a Measure>,
+    /// The kind of every node, for the .vtu point data (None: interior or boundary from the
+    /// boundary facets).
+    pub node_kind: Option<&'a [NodeKind]>,
+}
+
 /// The bytes of one output (a mesh file, or a picture for .svg and .png) and its encoding's
 /// name. `--encoding binary` applies to the formats that have a binary form; the others are
 /// text whatever it says.
-fn render(path: &Path, mesh: &MeshData, title: &str) -> Result<(Vec<u8>, &'static str), trussmesh::Error> {
+fn render(
+    path: &Path,
+    mesh: &MeshData,
+    title: &str,
+    extras: Extras,
+) -> Result<(Vec<u8>, &'static str), trussmesh::Error> {
+    let by = || extras.measure.cloned().unwrap_or_else(|| Measure::default_for(mesh));
     match extension(path).as_str() {
-        "svg" => Ok((trussmesh::io::svg_bytes(mesh, title)?, "picture")),
-        "png" => Ok((trussmesh::io::png_bytes(mesh, title, 1200)?, "picture")),
+        "svg" => Ok((trussmesh::io::svg_bytes_by(mesh, title, &by())?, "picture")),
+        "png" => Ok((trussmesh::io::png_bytes_by(mesh, title, &by(), 1200)?, "picture")),
         _ => {
             let format = Format::from_path(path)?;
-            let mut enc = ENCODING.get().copied().unwrap_or_default();
+            let mut encoding = ENCODING.get().copied().unwrap_or_default();
             if !format.has_binary() {
-                enc = Encoding::Ascii;
+                encoding = Encoding::Ascii;
             }
-            let how = if enc.is_binary(mesh.num_cells()) { "binary" } else { "text" };
-            Ok((trussmesh::io::write_mesh_bytes_with(mesh, format, enc)?, how))
+            let how = if encoding.is_binary(mesh.num_cells()) { "binary" } else { "text" };
+            let opts = WriteOptions { encoding, node_kind: extras.node_kind };
+            Ok((trussmesh::io::write_mesh_bytes_with(mesh, format, opts)?, how))
         }
     }
 }
 
+/// The metric quality of a planar mesh for the metric "A;B;C" given as three expressions:
+/// what pictures of anisotropic meshes are coloured by.
+pub fn metric_measure(mesh: &MeshData, abc: &[Expr; 3]) -> Measure {
+    Measure::metric_q(mesh, &|p| {
+        let [a, b, c] = abc.each_ref().map(|e| e.eval(p.x, p.y, 0.0));
+        Metric2::new(a, b, c)
+    })
+}
+
 /// Writes one output whole or not at all, making its directory.
-pub fn write_one(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Failure> {
+pub fn write_one_by(path: &Path, mesh: &MeshData, title: &str, extras: Extras) -> Result<(), Failure> {
     let start = Instant::now();
-    let (bytes, how) = render(path, mesh, title)?;
+    let (bytes, how) = render(path, mesh, title, extras)?;
     if let Some(dir) = path.parent() {
         if !dir.as_os_str().is_empty() {
             std::fs::create_dir_all(dir)
@@ -156,10 +184,15 @@ pub fn write_one(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Failur
 /// Writes every output; one that fails does not stop the others, and the error names each
 /// failed one (and the ones written).
 pub fn write_all(paths: &[PathBuf], mesh: &MeshData, title: &str) -> Result<(), Failure> {
+    write_all_by(paths, mesh, title, Extras::default())
+}
+
+/// [`write_all`] with what the run knows beyond the mesh.
+pub fn write_all_by(paths: &[PathBuf], mesh: &MeshData, title: &str, extras: Extras) -> Result<(), Failure> {
     let mut failed: Vec<Failure> = Vec::new();
     let mut written = Vec::new();
     for p in paths {
-        match write_one(p, mesh, title) {
+        match write_one_by(p, mesh, title, extras) {
             Ok(()) => written.push(p.display().to_string()),
             Err(f) => failed.push(f),
         }

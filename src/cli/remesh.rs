@@ -17,16 +17,16 @@ pub struct RemeshArgs {
     /// The mesh to start from (a 2-D triangle mesh in any readable format).
     pub mesh: PathBuf,
     /// The new absolute size h(x, y), evaluated at the old mesh's nodes.
-    #[arg(long)]
+    #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
     pub size: String,
-    /// Gradient limit g applied to the size on the old mesh.
-    #[arg(long, default_value_t = 0.3)]
+    /// Gradient limit g applied to the size on the old mesh (`--g` is the old spelling).
+    #[arg(long = "gradient", alias = "g", value_name = "G", default_value_t = 0.3)]
     pub g: f64,
     /// Iteration cap of the force iterations.
     #[arg(long, default_value_t = 1000, allow_hyphen_values = true, value_parser = whole_number::<usize>)]
     pub max_iter: usize,
     /// Output files; the extension picks the format.
-    #[arg(short = 'o', long = "output", required = true)]
+    #[arg(short = 'o', long = "output", value_name = "FILE", required = true)]
     pub outputs: Vec<PathBuf>,
     /// Memory budget (such as 2G or 500M; default a quarter of the machine's memory): a run
     /// whose estimate passes it is refused before remeshing.

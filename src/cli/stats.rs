@@ -18,7 +18,8 @@ pub struct StatsArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Domain d(x, y[, z]): report the largest |d| over boundary vertices.
+    /// Domain d(x, y[, z]): report the largest |d| over boundary vertices (for a surface mesh:
+    /// phi, and the distance |phi| / |grad phi| over all vertices).
     #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
     pub domain: Option<String>,
     /// The domain is a level set: use |d| / |grad d| as the distance (needs --domain).
@@ -73,9 +74,12 @@ pub struct MeshStats {
     /// std / mean over cells of circumradius / h(centroid).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub size_deviation: Option<f64>,
-    /// max |d| over the vertices of boundary facets.
+    /// max |d| over the vertices of boundary facets (planar and tetrahedral meshes).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub boundary_max_abs_d: Option<f64>,
+    /// Topology and distance to phi = 0 of a surface mesh (triangles in space).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub surface: Option<super::surface_stats::SurfaceStats>,
 }
 
 fn pt(m: &MeshData, i: usize) -> DVec3 {
@@ -191,7 +195,8 @@ pub fn compute(m: &MeshData, domain: Option<(&Expr, bool)>, size: Option<&Expr>)
         None => None,
     };
     let facets = m.boundary_facets();
-    let boundary_max_abs_d = domain.map(|(d, implicit)| {
+    let is_surface = m.dim == 3 && m.cell_type == CellType::Triangle;
+    let boundary_max_abs_d = domain.filter(|_| !is_surface).map(|(d, implicit)| {
         let mut on = vec![false; m.points.len()];
         for f in &facets {
             for &v in f {
@@ -217,6 +222,8 @@ pub fn compute(m: &MeshData, domain: Option<(&Expr, bool)>, size: Option<&Expr>)
         worst
     });
     let check = trussmesh::io::check_mesh(m);
+    let fans_ok = !check.problems.iter().any(|p| p.kind == trussmesh::io::ProblemKind::NonManifoldVertex);
+    let surface = is_surface.then(|| super::surface_stats::compute(m, domain.map(|(d, _)| d), fans_ok));
     Ok(MeshStats {
         valid: check.is_valid(),
         problems: check.problems.iter().map(|p| p.message.clone()).collect(),
@@ -232,6 +239,7 @@ pub fn compute(m: &MeshData, domain: Option<(&Expr, bool)>, size: Option<&Expr>)
         tets,
         size_deviation,
         boundary_max_abs_d,
+        surface,
     })
 }
 
@@ -275,6 +283,9 @@ impl std::fmt::Display for MeshStats {
         }
         if let Some(d) = self.boundary_max_abs_d {
             writeln!(f, "boundary fidelity (max |d| on boundary vertices): {d:.3e}")?;
+        }
+        if let Some(s) = &self.surface {
+            write!(f, "{s}")?;
         }
         Ok(())
     }

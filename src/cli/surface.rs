@@ -60,7 +60,7 @@ pub struct SurfaceArgs {
     pub max_memory: Option<String>,
     /// Output file; the extension picks the format (.json .vtu .msh .mesh .obj .stl .ply, or a
     /// shaded picture .svg .png).
-    #[arg(short = 'o', long = "output", value_name = "FILE")]
+    #[arg(short = 'o', long = "output", value_name = "FILE", required = true)]
     pub output: Vec<PathBuf>,
     /// No report.
     #[arg(short, long)]

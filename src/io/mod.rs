@@ -48,7 +48,9 @@ impl MeshData {
 
 mod binary;
 pub mod check;
+mod glyphs;
 mod json;
+pub mod measure;
 mod medit;
 mod msh;
 mod msh_binary;
@@ -59,7 +61,8 @@ mod vtu;
 
 pub use binary::Encoding;
 pub use check::{check_mesh, MeshCheck, Problem, ProblemKind};
-pub use picture::{png_bytes, svg_bytes, write_png, write_svg};
+pub use measure::Measure;
+pub use picture::{png_bytes, png_bytes_by, svg_bytes, svg_bytes_by, write_png, write_svg};
 
 use crate::Error;
 use std::path::Path;
@@ -117,6 +120,23 @@ impl Format {
             ))
         })
     }
+}
+
+/// What a node of a mesh is, as the .vtu point data `node_kind` records it (the number is the
+/// value written).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum NodeKind {
+    /// Free: moved by the bar forces alone.
+    Interior = 0,
+    /// On the boundary d = 0.
+    Boundary = 1,
+    /// Held where it is: a point given to be fixed.
+    Fixed = 2,
+    /// Held where it is: a sharp corner or a point on a sharp edge, found by the mesher.
+    Feature = 3,
+    /// On an internal boundary d_I = 0 (2-D).
+    Internal = 4,
 }
 
 impl MeshData {
@@ -222,10 +242,11 @@ pub fn write_mesh(path: &Path, mesh: &MeshData) -> Result<(), Error> {
     write_mesh_with(path, mesh, Encoding::Auto)
 }
 
-/// Writes a mesh file in the format the extension names and the given encoding.
-pub fn write_mesh_with(path: &Path, mesh: &MeshData, encoding: Encoding) -> Result<(), Error> {
+/// Writes a mesh file in the format the extension names, with the given [`WriteOptions`] (or
+/// just an [`Encoding`]).
+pub fn write_mesh_with<'a>(path: &Path, mesh: &MeshData, opts: impl Into<WriteOptions<'a>>) -> Result<(), Error> {
     let format = Format::from_path(path)?;
-    let bytes = write_mesh_bytes_with(mesh, format, encoding)?;
+    let bytes = write_mesh_bytes_with(mesh, format, opts)?;
     write_file(path, &bytes)
 }
 
@@ -274,13 +295,46 @@ pub fn read_mesh_bytes(bytes: &[u8], format: Format) -> Result<MeshData, Error> 
 /// Writes a mesh to memory in the given format, the encoding chosen by size
 /// ([`Encoding::Auto`]).
 pub fn write_mesh_bytes(mesh: &MeshData, format: Format) -> Result<Vec<u8>, Error> {
-    write_mesh_bytes_with(mesh, format, Encoding::Auto)
+    write_mesh_bytes_with(mesh, format, WriteOptions::default())
 }
 
-/// Writes a mesh to memory in the given format and encoding. [`Encoding::Binary`] for a
-/// format without a binary form is an error; [`Encoding::Auto`] then writes text.
-pub fn write_mesh_bytes_with(mesh: &MeshData, format: Format, encoding: Encoding) -> Result<Vec<u8>, Error> {
+/// How a mesh file is written: the encoding, and what the file records beyond the mesh.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WriteOptions<'a> {
+    /// Text or binary (formats without a binary form refuse [`Encoding::Binary`]).
+    pub encoding: Encoding,
+    /// The kind of every node (one per point), which .vtu files record as point data
+    /// `node_kind` (the other formats have no place for it).
+    pub node_kind: Option<&'a [NodeKind]>,
+}
+
+impl From<Encoding> for WriteOptions<'_> {
+    fn from(encoding: Encoding) -> Self {
+        WriteOptions { encoding, node_kind: None }
+    }
+}
+
+impl<'a> From<Option<&'a [NodeKind]>> for WriteOptions<'a> {
+    fn from(node_kind: Option<&'a [NodeKind]>) -> Self {
+        WriteOptions { encoding: Encoding::Auto, node_kind }
+    }
+}
+
+/// Writes a mesh to memory in the given format with the given [`WriteOptions`] (or just an
+/// [`Encoding`]). [`Encoding::Binary`] for a format without a binary form is an error;
+/// [`Encoding::Auto`] then writes text.
+pub fn write_mesh_bytes_with<'a>(
+    mesh: &MeshData,
+    format: Format,
+    opts: impl Into<WriteOptions<'a>>,
+) -> Result<Vec<u8>, Error> {
+    let WriteOptions { encoding, node_kind: kinds } = opts.into();
     mesh.validate()?;
+    if let Some(k) = kinds {
+        if k.len() != mesh.points.len() {
+            return Err(Error::Invalid(format!("{} node kinds for {} points", k.len(), mesh.points.len())));
+        }
+    }
     if encoding == Encoding::Binary && !format.has_binary() {
         return Err(Error::Invalid(format!(
             "the .{} format has no binary form (binary output: .vtu or .msh)",
@@ -290,7 +344,7 @@ pub fn write_mesh_bytes_with(mesh: &MeshData, format: Format, encoding: Encoding
     let binary = format.has_binary() && encoding.is_binary(mesh.num_cells());
     let s = match format {
         Format::Json => json::write(mesh),
-        Format::Vtu => return Ok(vtu::write(mesh, binary)),
+        Format::Vtu => return Ok(vtu::write(mesh, kinds, binary)),
         Format::Msh if binary => return Ok(msh_binary::write(mesh)),
         Format::Msh => msh::write(mesh),
         Format::Medit => medit::write(mesh),

@@ -1,9 +1,10 @@
 //! Pictures of meshes: triangles coloured by quality with a quality histogram (2-D), or a shaded
 //! oblique view (surfaces, and tet meshes cut in half so the inside shows). One scene is built
-//! and then drawn either as SVG text (with labels) or rasterised by tiny-skia into a PNG.
+//! and then drawn either as SVG text or rasterised by tiny-skia into a PNG, with the same text
+//! (title, colour-bar numbers, histogram axes, the measure's name) drawn from an embedded font.
 
+use super::measure::Measure;
 use super::{cell_facets, sorted, CellType, MeshData};
-use crate::quality::{tet_radius_ratio, triangle_q_from_lengths};
 use crate::Error;
 use glam::DVec3;
 use std::collections::HashMap;
@@ -31,7 +32,7 @@ enum Prim {
         color: Rgb,
         width: f32,
     },
-    /// SVG only: tiny-skia has no fonts.
+    /// Text on the baseline `at`; in PNGs drawn from the embedded font (see `glyphs`).
     Text {
         at: [f32; 2],
         size: f32,
@@ -74,25 +75,8 @@ fn shade(c: Rgb, i: f64) -> Rgb {
     c.map(|v| (v as f64 * i.clamp(0.0, 1.0)).round() as u8)
 }
 
-fn tri_quality(p: [DVec3; 3]) -> f64 {
-    triangle_q_from_lengths(p[1].distance(p[2]), p[2].distance(p[0]), p[0].distance(p[1]))
-}
-
 fn pt(m: &MeshData, i: usize) -> DVec3 {
     DVec3::from_array(m.points[i])
-}
-
-/// Quality of every cell: q for triangles, the radius ratio for tets.
-fn qualities(m: &MeshData) -> Vec<f64> {
-    (0..m.num_cells())
-        .map(|i| {
-            let c = m.cell(i);
-            match m.cell_type {
-                CellType::Triangle => tri_quality([pt(m, c[0]), pt(m, c[1]), pt(m, c[2])]),
-                CellType::Tetra => tet_radius_ratio([pt(m, c[0]), pt(m, c[1]), pt(m, c[2]), pt(m, c[3])]),
-            }
-        })
-        .collect()
 }
 
 /// Layout sizes derived from the picture width.
@@ -110,26 +94,30 @@ impl Layout {
     }
 }
 
-/// Projected triangles (screen coordinates before fitting), fill colour and whether to outline.
+/// Projected triangles (screen coordinates before fitting) with their fill colours, and the
+/// sharp edges to draw over them; both far to near.
 struct Flat {
     tris: Vec<([[f64; 2]; 3], Rgb)>,
+    /// (index into `tris` after which the edge is drawn, its two projected ends).
+    edges: Vec<(usize, [[f64; 2]; 2])>,
 }
 
-fn flat_2d(m: &MeshData, q: &[f64]) -> Flat {
+fn flat_2d(m: &MeshData, q: &Measure) -> Flat {
     Flat {
         tris: (0..m.num_cells())
             .map(|i| {
                 let c = m.cell(i);
                 let p = |k: usize| [m.points[c[k]][0], m.points[c[k]][1]];
-                ([p(0), p(1), p(2)], quality_color(q[i]))
+                ([p(0), p(1), p(2)], quality_color(q.fraction(q.values[i])))
             })
             .collect(),
+        edges: Vec::new(),
     }
 }
 
 /// The oblique orthographic view: triangles sorted far to near (painter's algorithm), Lambert
 /// shaded. Tet meshes show the half with centroid x <= mid-x, cut faces coloured by tet quality.
-fn flat_3d(m: &MeshData, q: &[f64]) -> Flat {
+fn flat_3d(m: &MeshData, q: &Measure, sharp: &[[usize; 2]]) -> Flat {
     let eye = DVec3::new(1.0, -1.3, 0.9).normalize();
     let fwd = -eye;
     let right = fwd.cross(DVec3::Z).normalize();
@@ -139,9 +127,9 @@ fn flat_3d(m: &MeshData, q: &[f64]) -> Flat {
     let mut faces: Vec<([DVec3; 3], Rgb, bool)> = Vec::new();
     match m.cell_type {
         CellType::Triangle => {
-            for (i, &qi) in q.iter().enumerate().take(m.num_cells()) {
+            for (i, &qi) in q.values.iter().enumerate().take(m.num_cells()) {
                 let c = m.cell(i);
-                faces.push(([pt(m, c[0]), pt(m, c[1]), pt(m, c[2])], quality_color(qi), true));
+                faces.push(([pt(m, c[0]), pt(m, c[1]), pt(m, c[2])], quality_color(q.fraction(qi)), true));
             }
         }
         CellType::Tetra => {
@@ -168,7 +156,7 @@ fn flat_3d(m: &MeshData, q: &[f64]) -> Flat {
                     if kept[&s] != 1 {
                         continue;
                     }
-                    let color = if total[&s] == 1 { [170, 190, 220] } else { quality_color(q[i]) };
+                    let color = if total[&s] == 1 { [170, 190, 220] } else { quality_color(q.fraction(q.values[i])) };
                     faces.push(([pt(m, f[0]), pt(m, f[1]), pt(m, f[2])], color, false));
                 }
             }
@@ -187,24 +175,76 @@ fn flat_3d(m: &MeshData, q: &[f64]) -> Flat {
         drawn.push((depth, s, shade(color, 0.3 + 0.7 * lambert)));
     }
     drawn.sort_by(|a, b| a.0.total_cmp(&b.0));
-    Flat { tris: drawn.into_iter().map(|(_, s, c)| (s, c)).collect() }
+    // Sharp edges go in the painter's order just after the faces at their depth (nudged toward
+    // the eye by a tenth of their length, so that their own two faces do not cover them).
+    let depths: Vec<f64> = drawn.iter().map(|d| d.0).collect();
+    let mut edges: Vec<(f64, [[f64; 2]; 2])> = sharp
+        .iter()
+        .map(|&[a, b]| {
+            let (pa, pb) = (pt(m, a), pt(m, b));
+            let depth = 0.5 * (pa + pb).dot(eye) + 0.1 * pa.distance(pb);
+            (depth, [pa, pb].map(|x| [x.dot(right), x.dot(up)]))
+        })
+        .collect();
+    edges.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let edges = edges.into_iter().map(|(d, e)| (depths.partition_point(|&x| x <= d), e)).collect();
+    Flat { tris: drawn.into_iter().map(|(_, s, c)| (s, c)).collect(), edges }
 }
 
-fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
+/// Edges of a surface mesh where the normals of the two triangles turn by more than
+/// `angle_deg`, or that bound one triangle only: the creases a picture draws.
+pub fn sharp_edges(m: &MeshData, angle_deg: f64) -> Vec<[usize; 2]> {
+    if m.cell_type != CellType::Triangle || m.dim != 3 {
+        return Vec::new();
+    }
+    let normal = |i: usize| {
+        let c = m.cell(i);
+        (pt(m, c[1]) - pt(m, c[0])).cross(pt(m, c[2]) - pt(m, c[0])).normalize_or_zero()
+    };
+    let mut first: HashMap<[usize; 2], usize> = HashMap::new();
+    let mut out = Vec::new();
+    let cos = angle_deg.to_radians().cos();
+    for i in 0..m.num_cells() {
+        let c = m.cell(i);
+        for k in 0..3 {
+            let e = [c[k].min(c[(k + 1) % 3]), c[k].max(c[(k + 1) % 3])];
+            match first.remove(&e) {
+                Some(j) if normal(i).dot(normal(j)) < cos => out.push(e),
+                Some(_) => {}
+                None => {
+                    first.insert(e, i);
+                }
+            }
+        }
+    }
+    out.extend(first.into_keys());
+    out.sort_unstable();
+    out
+}
+
+fn build_scene(m: &MeshData, title: &str, measure: &Measure, width: f32) -> Result<Scene, Error> {
     m.validate()?;
     if m.num_cells() == 0 {
         return Err(Error::InvalidMesh("nothing to draw: the mesh has no cells".into()));
     }
-    let q = qualities(m);
-    let flat = if m.dim == 2 { flat_2d(m, &q) } else { flat_3d(m, &q) };
+    if measure.values.len() != m.num_cells() {
+        return Err(Error::Invalid(format!(
+            "the measure {:?} has {} values for {} cells",
+            measure.name,
+            measure.values.len(),
+            m.num_cells()
+        )));
+    }
+    let q = measure;
+    let flat = if m.dim == 2 {
+        flat_2d(m, q)
+    } else {
+        let sharp = if m.cell_type == CellType::Triangle { sharp_edges(m, 40.0) } else { Vec::new() };
+        flat_3d(m, q, &sharp)
+    };
     let l = Layout::new(width);
     let mut prims = Vec::new();
-    prims.push(Prim::Text {
-        at: [l.margin, l.margin + 0.6 * l.title_h],
-        size: 0.035 * l.w,
-        anchor: "start",
-        text: title.to_string(),
-    });
+    prims.push(title_text(&l, title));
 
     // Fit the drawing into the panel, keeping its aspect ratio (y up in the mesh, down on screen).
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
@@ -229,10 +269,17 @@ fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
     let y0 = (l.margin + l.title_h) as f64 + 0.5 * (panel_h - scale * span[1]);
     let ncells = flat.tris.len().max(1) as f32;
     let edge_w = (0.0015 * l.w * (2000.0 / ncells).sqrt().clamp(0.3, 1.0)).max(0.25);
-    for (t, color) in &flat.tris {
-        let pts =
-            t.iter().map(|p| [(x0 + scale * (p[0] - lo[0])) as f32, (y0 + scale * (hi[1] - p[1])) as f32]).collect();
+    let at2 = |p: [f64; 2]| [(x0 + scale * (p[0] - lo[0])) as f32, (y0 + scale * (hi[1] - p[1])) as f32];
+    let mut next_edge = flat.edges.iter().peekable();
+    for (k, (t, color)) in flat.tris.iter().enumerate() {
+        while let Some((_, e)) = next_edge.next_if(|(after, _)| *after <= k) {
+            prims.push(Prim::Line { a: at2(e[0]), b: at2(e[1]), color: [15, 15, 25], width: 2.5 * edge_w });
+        }
+        let pts = t.iter().map(|&p| at2(p)).collect();
         prims.push(Prim::Poly { pts, fill: *color, stroke: Some(([40, 40, 50], edge_w)) });
+    }
+    for (_, e) in next_edge {
+        prims.push(Prim::Line { a: at2(e[0]), b: at2(e[1]), color: [15, 15, 25], width: 2.5 * edge_w });
     }
     // Internal boundaries: edges between triangles of different subdomains, drawn thick.
     if let (2, Some(labels)) = (m.dim, &m.subdomain) {
@@ -249,23 +296,52 @@ fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
             }
         }
         interface.sort_unstable();
-        let at = |i: usize| {
-            let p = m.points[i];
-            [(x0 + scale * (p[0] - lo[0])) as f32, (y0 + scale * (hi[1] - p[1])) as f32]
-        };
+        let at = |i: usize| at2([m.points[i][0], m.points[i][1]]);
         for (a, b) in interface {
             prims.push(Prim::Line { a: at(a), b: at(b), color: [20, 20, 120], width: 3.0 * edge_w });
         }
     }
-
-    // Histogram of quality in 20 bins over [0, 1].
     let top = l.margin + l.title_h + panel_h as f32 + 0.05 * l.w;
-    let hx0 = l.margin + 0.06 * l.w;
-    let hw = l.w - 2.0 * l.margin - l.legend_w - 0.08 * l.w;
+    legend(&mut prims, &l, q, top, m.cell_type);
+    let h = top + l.hist_h + 0.1 * l.w;
+    Ok(Scene { w: l.w, h, prims })
+}
+
+/// The title, in a smaller font when it is long and cut short (with "...") when even that
+/// does not fit the picture's width (widths from the embedded font's metrics, for SVG too).
+fn title_text(l: &Layout, title: &str) -> Prim {
+    let avail = l.w - 2.0 * l.margin;
+    let full = 0.035 * l.w;
+    let small = 0.02 * l.w;
+    let width = super::glyphs::text_width(full, title);
+    let size = if width > avail { (full * avail / width).max(small) } else { full };
+    let mut text = title.to_string();
+    if super::glyphs::text_width(size, &text) > avail {
+        let chars: Vec<char> = title.chars().collect();
+        let (mut lo, mut hi) = (0, chars.len());
+        while lo < hi {
+            let mid = (lo + hi).div_ceil(2);
+            let t: String = chars[..mid].iter().collect::<String>() + "...";
+            if super::glyphs::text_width(size, &t) <= avail {
+                lo = mid;
+            } else {
+                hi = mid - 1;
+            }
+        }
+        text = chars[..lo].iter().collect::<String>() + "...";
+    }
+    Prim::Text { at: [l.margin, l.margin + 0.6 * l.title_h], size, anchor: "start", text }
+}
+
+/// The histogram of the measure (20 bins over its range, with both axes numbered and named),
+/// the summary line and the colour bar, from `top` down.
+fn legend(prims: &mut Vec<Prim>, l: &Layout, q: &Measure, top: f32, ct: CellType) {
+    let hx0 = l.margin + 0.08 * l.w;
+    let hw = l.w - 2.0 * l.margin - l.legend_w - 0.1 * l.w;
     let hh = l.hist_h;
     let mut bins = [0usize; 20];
-    for &v in &q {
-        bins[((v.clamp(0.0, 1.0) * 20.0) as usize).min(19)] += 1;
+    for &v in &q.values {
+        bins[((q.fraction(v) * 20.0) as usize).min(19)] += 1;
     }
     let maxb = *bins.iter().max().unwrap_or(&1) as f32;
     let bw = hw / 20.0;
@@ -286,32 +362,44 @@ fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
     prims.push(Prim::Line { a: [hx0, top + hh], b: [hx0 + hw, top + hh], color: axis, width: aw });
     prims.push(Prim::Line { a: [hx0, top], b: [hx0, top + hh], color: axis, width: aw });
     let fs = 0.022 * l.w;
-    for (v, s) in [(0.0, "0"), (0.5, "0.5"), (1.0, "1")] {
-        let x = hx0 + v * hw;
+    let ticks = [0.0, 0.25, 0.5, 0.75, 1.0].map(|t| (t, q.label(q.lo + t as f64 * (q.hi - q.lo))));
+    for (t, s) in &ticks {
+        let x = hx0 + t * hw;
         prims.push(Prim::Line { a: [x, top + hh], b: [x, top + hh + 0.01 * l.w], color: axis, width: aw });
-        prims.push(Prim::Text { at: [x, top + hh + 0.035 * l.w], size: fs, anchor: "middle", text: s.into() });
+        prims.push(Prim::Text { at: [x, top + hh + 0.035 * l.w], size: fs, anchor: "middle", text: s.clone() });
     }
-    prims.push(Prim::Text {
-        at: [hx0 - 0.01 * l.w, top + 0.02 * l.w],
-        size: fs,
-        anchor: "end",
-        text: maxb.to_string(),
-    });
-    let (name, count) = match m.cell_type {
-        CellType::Triangle => ("q", "triangles"),
-        CellType::Tetra => ("radius ratio", "tetrahedra"),
+    // The count axis: 0 and the tallest bin, ticked, and named.
+    for (v, y) in [(0.0, top + hh), (maxb, top)] {
+        prims.push(Prim::Line { a: [hx0 - 0.01 * l.w, y], b: [hx0, y], color: axis, width: aw });
+        prims.push(Prim::Text {
+            at: [hx0 - 0.015 * l.w, y + 0.35 * fs],
+            size: fs,
+            anchor: "end",
+            text: format!("{v}"),
+        });
+    }
+    let count = match ct {
+        CellType::Triangle => "triangles",
+        CellType::Tetra => "tetrahedra",
     };
-    let min = q.iter().copied().fold(f64::INFINITY, f64::min);
-    let mean = q.iter().sum::<f64>() / q.len() as f64;
+    prims.push(Prim::Text {
+        at: [hx0 - 0.015 * l.w, top + 0.5 * hh + 0.35 * fs],
+        size: 0.8 * fs,
+        anchor: "end",
+        text: "count".into(),
+    });
+    let min = q.values.iter().copied().fold(f64::INFINITY, f64::min);
+    let mean = q.values.iter().sum::<f64>() / q.values.len() as f64;
+    let name = &q.name;
     prims.push(Prim::Text {
         at: [hx0 + 0.5 * hw, top + hh + 0.07 * l.w],
         size: fs,
         anchor: "middle",
-        text: format!("{} {count}, {name}: min {min:.3}, mean {mean:.3}", q.len()),
+        text: format!("{} {count} by {name}: min {}, mean {}", q.values.len(), q.label(min), q.label(mean)),
     });
 
-    // Colour legend: a vertical bar from 0 (bottom) to 1 (top).
-    let lx = l.w - l.margin - 0.5 * l.legend_w;
+    // Colour bar: a vertical bar from lo (bottom) to hi (top), numbered, the measure named above.
+    let lx = l.w - l.margin - 0.6 * l.legend_w;
     let lw = 0.04 * l.w;
     let steps = 40;
     for k in 0..steps {
@@ -319,17 +407,19 @@ fn build_scene(m: &MeshData, title: &str, width: f32) -> Result<Scene, Error> {
         let y = top + hh * (1.0 - (k + 1) as f32 / steps as f32);
         prims.push(Prim::Rect { x: lx, y, w: lw, h: hh / steps as f32 + 0.5, fill: quality_color(v) });
     }
-    for (v, s) in [(0.0, "0"), (0.5, "0.5"), (1.0, "1")] {
+    for (t, s) in ticks.iter().step_by(2) {
+        let y = top + hh * (1.0 - t);
+        prims.push(Prim::Line { a: [lx + lw, y], b: [lx + lw + 0.008 * l.w, y], color: axis, width: aw });
         prims.push(Prim::Text {
-            at: [lx + lw + 0.01 * l.w, top + hh * (1.0 - v) + 0.3 * fs],
+            at: [lx + lw + 0.012 * l.w, y + 0.35 * fs],
             size: fs,
             anchor: "start",
-            text: s.into(),
+            text: s.clone(),
         });
     }
-    prims.push(Prim::Text { at: [lx + 0.5 * lw, top - 0.015 * l.w], size: fs, anchor: "middle", text: name.into() });
-    let h = top + hh + 0.1 * l.w;
-    Ok(Scene { w: l.w, h, prims })
+    // The name centred over the bar, or ending at the margin when it is wider than the room.
+    let name_x = (lx + 0.5 * lw + 0.5 * super::glyphs::text_width(fs, name)).min(l.w - l.margin);
+    prims.push(Prim::Text { at: [name_x, top - 0.015 * l.w], size: fs, anchor: "end", text: name.clone() });
 }
 
 fn esc(s: &str) -> String {
@@ -342,7 +432,7 @@ fn hex(c: Rgb) -> String {
 
 fn svg_text(sc: &Scene) -> String {
     let mut s = format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{h:.0}\" viewBox=\"0 0 {w:.1} {h:.1}\" font-family=\"sans-serif\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n",
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w:.0}\" height=\"{h:.0}\" viewBox=\"0 0 {w:.1} {h:.1}\" font-family=\"DejaVu Sans, Verdana, sans-serif\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n",
         w = sc.w,
         h = sc.h
     );
@@ -375,29 +465,40 @@ fn svg_text(sc: &Scene) -> String {
 }
 
 /// Writes an SVG picture: the 2-D mesh coloured by quality (or the shaded 3-D view), a quality
-/// histogram, a colour legend and the title.
+/// histogram, a colour legend and the title. The quality is q for triangles and the smallest
+/// dihedral angle for tetrahedra ([`Measure::default_for`]).
 pub fn write_svg(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Error> {
     super::write_file(path, &svg_bytes(mesh, title)?)
 }
 
 /// The picture of [`write_svg`] as the bytes of an SVG file.
 pub fn svg_bytes(mesh: &MeshData, title: &str) -> Result<Vec<u8>, Error> {
-    let sc = build_scene(mesh, title, 800.0)?;
+    svg_bytes_by(mesh, title, &Measure::default_for(mesh))
+}
+
+/// The SVG picture coloured by `measure` (one value per cell), such as [`Measure::metric_q`].
+pub fn svg_bytes_by(mesh: &MeshData, title: &str, measure: &Measure) -> Result<Vec<u8>, Error> {
+    let sc = build_scene(mesh, title, measure, 800.0)?;
     Ok(svg_text(&sc).into_bytes())
 }
 
-/// Writes the same picture as [`write_svg`] as a PNG `width_px` wide, without text.
+/// Writes the same picture as [`write_svg`] as a PNG `width_px` wide, with the same text.
 pub fn write_png(path: &Path, mesh: &MeshData, title: &str, width_px: u32) -> Result<(), Error> {
     super::write_file(path, &png_bytes(mesh, title, width_px)?)
 }
 
 /// The picture of [`write_png`] as the bytes of a PNG file.
 pub fn png_bytes(mesh: &MeshData, title: &str, width_px: u32) -> Result<Vec<u8>, Error> {
+    png_bytes_by(mesh, title, &Measure::default_for(mesh), width_px)
+}
+
+/// The PNG picture coloured by `measure` (one value per cell).
+pub fn png_bytes_by(mesh: &MeshData, title: &str, measure: &Measure, width_px: u32) -> Result<Vec<u8>, Error> {
     use tiny_skia::{Color, FillRule, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
     if !(64..=16384).contains(&width_px) {
         return Err(Error::Invalid(format!("PNG width {width_px} must be in 64..=16384 pixels")));
     }
-    let sc = build_scene(mesh, title, width_px as f32)?;
+    let sc = build_scene(mesh, title, measure, width_px as f32)?;
     let height = (sc.h.ceil() as u32).clamp(1, 32768);
     let mut pix = Pixmap::new(width_px, height)
         .ok_or_else(|| Error::Invalid(format!("cannot make a {width_px}x{height} picture")))?;
@@ -440,7 +541,9 @@ pub fn png_bytes(mesh: &MeshData, title: &str, width_px: u32) -> Result<Vec<u8>,
                     pix.stroke_path(&path, &paint_of(*color), &st, id, None);
                 }
             }
-            Prim::Text { .. } => {}
+            Prim::Text { at, size, anchor, text } => {
+                super::glyphs::draw_text(&mut pix, *at, *size, anchor, text, [20, 20, 20]);
+            }
         }
     }
     pix.encode_png().map_err(|e| Error::internal(format!("cannot encode the PNG picture: {e}")))

@@ -1,11 +1,13 @@
 //! The .vtu writer: one list of typed arrays, written as ASCII text or appended raw binary.
 
+use super::super::measure::{tet_min_dihedral_values, tet_radius_ratio_values, triangle_q_values};
 use super::super::text::fmt_f64;
-use super::super::{CellType, MeshData};
+use super::super::{CellType, MeshData, NodeKind};
 
 /// The numbers of one output array.
 enum Values<'a> {
     F64(&'a [[f64; 3]]),
+    F64s(Vec<f64>),
     I64(Vec<i64>),
     I32(&'a [i32]),
     I32Owned(Vec<i32>),
@@ -15,7 +17,7 @@ enum Values<'a> {
 impl Values<'_> {
     fn vtk_type(&self) -> &'static str {
         match self {
-            Values::F64(_) => "Float64",
+            Values::F64(_) | Values::F64s(_) => "Float64",
             Values::I64(_) => "Int64",
             Values::I32(_) | Values::I32Owned(_) => "Int32",
             Values::U8(_) => "UInt8",
@@ -24,6 +26,7 @@ impl Values<'_> {
     fn byte_len(&self) -> usize {
         match self {
             Values::F64(v) => 24 * v.len(),
+            Values::F64s(v) => 8 * v.len(),
             Values::I64(v) => 8 * v.len(),
             Values::I32(v) => 4 * v.len(),
             Values::I32Owned(v) => 4 * v.len(),
@@ -34,6 +37,7 @@ impl Values<'_> {
         out.reserve(self.byte_len());
         match self {
             Values::F64(v) => v.iter().flatten().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
+            Values::F64s(v) => v.iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
             Values::I64(v) => v.iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
             Values::I32(v) => v.iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
             Values::I32Owned(v) => v.iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
@@ -46,6 +50,7 @@ impl Values<'_> {
             Values::F64(v) => v.iter().for_each(|p| {
                 let _ = writeln!(s, "          {} {} {}", fmt_f64(p[0]), fmt_f64(p[1]), fmt_f64(p[2]));
             }),
+            Values::F64s(v) => push_wrapped(s, v.iter().map(|&x| fmt_f64(x)), per_line),
             Values::I64(v) => push_wrapped(s, v.iter().map(|x| x.to_string()), per_line),
             Values::I32(v) => push_wrapped(s, v.iter().map(|x| x.to_string()), per_line),
             Values::I32Owned(v) => push_wrapped(s, v.iter().map(|x| x.to_string()), per_line),
@@ -62,8 +67,11 @@ struct OutArray<'a> {
     values: Values<'a>,
 }
 
-/// The arrays a mesh is written as, in file order.
-fn arrays(m: &MeshData) -> Vec<OutArray<'_>> {
+/// The arrays a mesh is written as, in file order: point data (`node_kind`: the given kinds,
+/// or for planar and tetrahedral meshes interior 0 / boundary 1 from the boundary facets),
+/// points, cells, and cell data (quality: `q` for triangles, `radius_ratio` and
+/// `min_dihedral` in degrees for tetrahedra; `subdomain` when labelled).
+fn arrays<'a>(m: &'a MeshData, kinds: Option<&[NodeKind]>) -> Vec<OutArray<'a>> {
     let n = m.num_cells();
     let k = m.cell_type.nodes();
     let ty = if m.cell_type == CellType::Tetra { 10 } else { 5 };
@@ -76,7 +84,22 @@ fn arrays(m: &MeshData) -> Vec<OutArray<'_>> {
             Values::I64(v.map(|c| c as i64).collect())
         }
     };
-    let mut v = vec![
+    let mut v = Vec::new();
+    let kinds: Option<Vec<u8>> = match kinds {
+        Some(k) if k.len() == m.points.len() => Some(k.iter().map(|&k| k as u8).collect()),
+        _ if m.dim == 2 || m.cell_type == CellType::Tetra => {
+            let mut d = vec![NodeKind::Interior as u8; m.points.len()];
+            for i in m.boundary_facets().into_iter().flatten() {
+                d[i] = NodeKind::Boundary as u8;
+            }
+            Some(d)
+        }
+        _ => None,
+    };
+    if let Some(k) = kinds {
+        v.push(OutArray { section: "PointData", name: "node_kind", components: 1, values: Values::U8(k) });
+    }
+    v.extend([
         OutArray { section: "Points", name: "Points", components: 3, values: Values::F64(&m.points) },
         OutArray {
             section: "Cells",
@@ -86,7 +109,19 @@ fn arrays(m: &MeshData) -> Vec<OutArray<'_>> {
         },
         OutArray { section: "Cells", name: "offsets", components: 1, values: ints(&mut (1..=n).map(|i| i * k)) },
         OutArray { section: "Cells", name: "types", components: 1, values: Values::U8(vec![ty; n]) },
-    ];
+    ]);
+    let finite = |q: Vec<f64>| Values::F64s(q.into_iter().map(|x| if x.is_finite() { x } else { 0.0 }).collect());
+    match m.cell_type {
+        CellType::Triangle => {
+            v.push(OutArray { section: "CellData", name: "q", components: 1, values: finite(triangle_q_values(m)) })
+        }
+        CellType::Tetra => {
+            for (name, q) in [("radius_ratio", tet_radius_ratio_values(m)), ("min_dihedral", tet_min_dihedral_values(m))]
+            {
+                v.push(OutArray { section: "CellData", name, components: 1, values: finite(q) });
+            }
+        }
+    }
     if let Some(sd) = &m.subdomain {
         v.push(OutArray { section: "CellData", name: "subdomain", components: 1, values: Values::I32(sd) });
     }
@@ -96,10 +131,10 @@ fn arrays(m: &MeshData) -> Vec<OutArray<'_>> {
 /// Writes the mesh as ASCII arrays, or with `binary` as raw little-endian arrays appended
 /// after the XML (each block led by its UInt64 byte count): exact, about a third of the size,
 /// and written at memory speed.
-pub(crate) fn write(m: &MeshData, binary: bool) -> Vec<u8> {
+pub(crate) fn write(m: &MeshData, kinds: Option<&[NodeKind]>, binary: bool) -> Vec<u8> {
     use std::fmt::Write;
     let n = m.num_cells();
-    let arrays = arrays(m);
+    let arrays = arrays(m, kinds);
     let mut s = String::with_capacity(if binary { 4096 } else { 64 * (m.points.len() + n) + 1024 });
     s.push_str("<?xml version=\"1.0\"?>\n");
     s.push_str(
@@ -114,8 +149,8 @@ pub(crate) fn write(m: &MeshData, binary: bool) -> Vec<u8> {
             if let Some(o) = open {
                 let _ = writeln!(s, "      </{o}>");
             }
-            if a.section == "CellData" {
-                let _ = writeln!(s, "      <CellData Scalars=\"{}\">", a.name);
+            if a.section.ends_with("Data") {
+                let _ = writeln!(s, "      <{} Scalars=\"{}\">", a.section, a.name);
             } else {
                 let _ = writeln!(s, "      <{}>", a.section);
             }
