@@ -36,6 +36,9 @@ fn bench(c: &mut Criterion) {
     ] {
         let path = dir.join(format!("m.{}", format.extension()));
         g.bench_function(format!("write_file_{label}"), |b| b.iter(|| write_mesh_with(&path, &m, enc).unwrap()));
+        g.bench_function(format!("write_bytes_{label}"), |b| {
+            b.iter(|| write_mesh_bytes_with(&m, format, enc).unwrap())
+        });
         let bytes = write_mesh_bytes_with(&m, format, enc).unwrap();
         println!("{label}: {:.1} MB", bytes.len() as f64 / 1e6);
         g.bench_function(format!("read_{label}"), |b| b.iter(|| read_mesh_bytes(&bytes, format).unwrap()));

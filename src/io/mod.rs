@@ -176,39 +176,74 @@ impl MeshData {
     /// Facets (edges of triangles, faces of tets) that belong to one cell only, oriented
     /// outward from that cell, in order of first appearance: the boundary files record.
     pub fn boundary_facets(&self) -> Vec<Vec<usize>> {
-        // Sorting (key, position) pairs instead of hashing facet vectors: a million cells take
-        // a fraction of a second.
-        let k = self.cell_type.nodes();
-        let mut keys: Vec<([usize; 3], usize)> = Vec::with_capacity(self.num_cells() * k);
-        for i in 0..self.num_cells() {
-            for (j, f) in cell_facets(self.cell_type, self.cell(i)).iter().enumerate() {
-                let mut key = [usize::MAX; 3];
-                key[..f.len()].copy_from_slice(f);
-                key[..f.len()].sort_unstable();
-                keys.push((key, i * k + j));
-            }
-        }
-        keys.sort_unstable();
-        let mut single: Vec<usize> = Vec::new();
-        let mut i = 0;
-        while i < keys.len() {
-            let mut j = i + 1;
-            while j < keys.len() && keys[j].0 == keys[i].0 {
-                j += 1;
-            }
-            if j == i + 1 {
-                single.push(keys[i].1);
-            }
-            i = j;
-        }
-        single.sort_unstable();
-        single
+        self.boundary_facet_positions()
             .into_iter()
             .map(|at| {
-                let (cell, local) = (at / k, at % k);
-                cell_facets(self.cell_type, self.cell(cell)).swap_remove(local)
+                let k = self.cell_type.nodes();
+                cell_facets(self.cell_type, self.cell(at / k)).swap_remove(at % k)
             })
             .collect()
+    }
+
+    /// The boundary facets as positions `cell * k + local` (k facets a cell, in the order of
+    /// [`cell_facets`]), ascending. Facets are bucketed by their smallest node (a counting
+    /// sort), and a facet is on the boundary when no other in its bucket has the same nodes:
+    /// linear time, no hashing, and the same result however the buckets are filled.
+    fn boundary_facet_positions(&self) -> Vec<usize> {
+        const TET: [[usize; 3]; 4] = [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]];
+        let k = self.cell_type.nodes();
+        let total = self.num_cells() * k;
+        // The facet's nodes, sorted (a triangle's edge repeats its larger node).
+        let nodes = |at: usize| -> [usize; 3] {
+            let (c, j) = (self.cell(at / k), at % k);
+            match self.cell_type {
+                CellType::Triangle => {
+                    let (a, b) = (c[j], c[(j + 1) % 3]);
+                    [a.min(b), a.max(b), a.max(b)]
+                }
+                CellType::Tetra => {
+                    let mut f = TET[j].map(|l| c[l]);
+                    f.sort_unstable();
+                    f
+                }
+            }
+        };
+        let mut start = vec![0usize; self.points.len() + 1];
+        for at in 0..total {
+            start[nodes(at)[0] + 1] += 1;
+        }
+        for i in 0..self.points.len() {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut bucket = vec![(0usize, 0usize, 0usize); total];
+        for at in 0..total {
+            let f = nodes(at);
+            bucket[fill[f[0]]] = (f[1], f[2], at);
+            fill[f[0]] += 1;
+        }
+        let mut boundary = vec![false; total];
+        for v in 0..self.points.len() {
+            let b = &bucket[start[v]..start[v + 1]];
+            for (i, x) in b.iter().enumerate() {
+                boundary[x.2] = !b.iter().enumerate().any(|(j, y)| j != i && (y.0, y.1) == (x.0, x.1));
+            }
+        }
+        (0..total).filter(|&at| boundary[at]).collect()
+    }
+
+    /// Whether each node lies on a boundary facet.
+    pub fn boundary_nodes(&self) -> Vec<bool> {
+        let k = self.cell_type.nodes();
+        let mut on = vec![false; self.points.len()];
+        for at in self.boundary_facet_positions() {
+            let c = self.cell(at / k);
+            match self.cell_type {
+                CellType::Triangle => [at % k, (at % k + 1) % 3].iter().for_each(|&l| on[c[l]] = true),
+                CellType::Tetra => (0..4).filter(|&l| l != at % k).for_each(|l| on[c[l]] = true),
+            }
+        }
+        on
     }
 }
 

@@ -88,11 +88,8 @@ fn arrays<'a>(m: &'a MeshData, kinds: Option<&[NodeKind]>) -> Vec<OutArray<'a>> 
     let kinds: Option<Vec<u8>> = match kinds {
         Some(k) if k.len() == m.points.len() => Some(k.iter().map(|&k| k as u8).collect()),
         _ if m.dim == 2 || m.cell_type == CellType::Tetra => {
-            let mut d = vec![NodeKind::Interior as u8; m.points.len()];
-            for i in m.boundary_facets().into_iter().flatten() {
-                d[i] = NodeKind::Boundary as u8;
-            }
-            Some(d)
+            let kind = |b: bool| if b { NodeKind::Boundary } else { NodeKind::Interior } as u8;
+            Some(m.boundary_nodes().into_iter().map(kind).collect())
         }
         _ => None,
     };
