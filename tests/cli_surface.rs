@@ -137,3 +137,30 @@ fn stats_of_closed_surfaces() {
         assert!(v.get("boundary_max_abs_d").is_none());
     }
 }
+
+/// `surface --size auto --per-radian K` is the old `--curvature K`: the same mesh bit for bit.
+#[test]
+fn size_auto_is_the_old_curvature_flag() {
+    let d = tmp("size_auto");
+    let torus = "sqrt((sqrt(x^2+y^2)-1)^2+z^2)-0.3";
+    let common = ["surface", "--phi", torus, "--bbox", "-1.5,-1.5,-0.5,1.5,1.5,0.5", "--h0", "0.1", "--hmax", "0.25"];
+    let a: Vec<&str> =
+        common.iter().copied().chain(["--size", "auto", "--per-radian", "3", "-q", "-o", "a.obj"]).collect();
+    let b: Vec<&str> = common.iter().copied().chain(["--curvature", "3", "-q", "-o", "b.obj"]).collect();
+    for args in [&a, &b] {
+        let (code, _, err) = run(&d, args);
+        assert_eq!(code, 0, "{err}");
+    }
+    let (fa, fb) = (std::fs::read(d.join("a.obj")).unwrap(), std::fs::read(d.join("b.obj")).unwrap());
+    assert_eq!(fa, fb, "--size auto --per-radian 3 and --curvature 3 differ");
+    let m = trussmesh::io::read_mesh(&d.join("a.obj")).unwrap();
+    let u: Vec<&str> = common[..7].iter().copied().chain(["-q", "-o", "u.obj"]).collect();
+    let (code, _, err) = run(&d, &u);
+    assert_eq!(code, 0, "{err}");
+    let uniform = trussmesh::io::read_mesh(&d.join("u.obj")).unwrap();
+    println!("torus: {} triangles with --size auto, {} uniform at h0", m.num_cells(), uniform.num_cells());
+    assert!(m.num_cells() < uniform.num_cells(), "curvature sizes grow above h0 on the flat side");
+    let (code, _, err) = run(&d, &common.iter().copied().chain(["--size", "x+1", "-o", "c.obj"]).collect::<Vec<_>>());
+    assert_eq!(code, 2);
+    assert!(err.contains("surface --size takes auto"), "{err}");
+}

@@ -1,5 +1,6 @@
 //! `trussmesh mesh`: flags or a TOML scene in, mesh files and pictures out.
 
+use super::auto_size::{is_auto, Auto, AutoSizeArgs};
 use super::budget::{self, Budget};
 use super::sample::DomainSample;
 pub use super::scene::{constant, parse_expr, scene_spec, split_top, whole_number};
@@ -44,7 +45,11 @@ impl From<ProjectionArg> for Projection {
     }
 }
 
-const FLAGS: [&str; 13] = [
+const FLAGS: [&str; 17] = [
+    "per_radian",
+    "across",
+    "gradient",
+    "hmax",
     "dim",
     "domain",
     "size",
@@ -74,9 +79,12 @@ pub struct MeshArgs {
     /// The domain d(x, y) < 0 (a signed distance unless --implicit).
     #[arg(long, value_name = "EXPR", allow_hyphen_values = true, required_unless_present = "scene")]
     pub domain: Option<String>,
-    /// Relative size h(x, y) (only ratios matter; default uniform).
-    #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
+    /// Relative size h(x, y) (only ratios matter; default uniform), or `auto`: sizes from
+    /// curvature and feature size, gradient limited, from --h0 up to --hmax.
+    #[arg(long, value_name = "EXPR|auto", allow_hyphen_values = true)]
     pub size: Option<String>,
+    #[command(flatten)]
+    pub auto: AutoSizeArgs,
     /// Initial edge length (a constant expression such as 0.05/3).
     #[arg(long, value_name = "H", allow_hyphen_values = true, required_unless_present = "scene")]
     pub h0: Option<String>,
@@ -128,6 +136,7 @@ pub struct Spec {
     pub dim: usize,
     pub domain: String,
     pub size: Option<String>,
+    pub auto: AutoSizeArgs,
     pub h0: String,
     pub bbox: Vec<String>,
     pub fix: Vec<Vec<String>>,
@@ -148,6 +157,8 @@ pub struct Job {
     pub dim: usize,
     pub domain: Expr,
     pub size: Option<Expr>,
+    /// `--size auto`.
+    pub auto: Option<Auto>,
     pub h0: f64,
     pub bbox: Vec<f64>,
     pub fix: Vec<Vec<f64>>,
@@ -198,6 +209,7 @@ impl MeshArgs {
             dim: self.dim.unwrap_or(2),
             domain: need(&self.domain, "domain")?,
             size: self.size.clone(),
+            auto: self.auto.clone(),
             h0: need(&self.h0, "h0")?,
             bbox: split_top(&need(&self.bbox, "bbox")?, ','),
             fix,
@@ -228,9 +240,10 @@ impl Spec {
             return Err(Failure::bad(format!("--dim must be 2 or 3, not {dim}")));
         }
         let domain = parse_expr("--domain", &self.domain)?;
+        let auto_size = is_auto(self.size.as_deref());
         let size = match &self.size {
-            Some(s) => Some(parse_expr("--size", s)?),
-            None => None,
+            Some(s) if !auto_size => Some(parse_expr("--size", s)?),
+            _ => None,
         };
         let internal = match &self.internal {
             Some(s) => Some(parse_expr("--internal", s)?),
@@ -245,7 +258,7 @@ impl Spec {
                         parts.len()
                     )));
                 }
-                if size.is_some() {
+                if size.is_some() || auto_size {
                     return Err(Failure::bad(
                         "give either --size or --metric, not both (the metric replaces the size)",
                     ));
@@ -274,6 +287,7 @@ impl Spec {
         if h0 <= 0.0 {
             return Err(Failure::bad(format!("h0 must be positive, got {h0} ({})", self.h0.trim())));
         }
+        let auto = self.auto.resolve(auto_size, h0)?;
         let axes = if dim == 2 { "X0,Y0,X1,Y1" } else { "X0,Y0,Z0,X1,Y1,Z1" };
         if self.bbox.len() != 2 * dim {
             return Err(Failure::bad(format!(
@@ -352,6 +366,7 @@ impl Spec {
             dim,
             domain,
             size,
+            auto,
             h0,
             bbox,
             fix,
@@ -419,6 +434,9 @@ impl Job {
             let h = h.clone();
             o = o.with_size(move |p| h.eval(p.x, p.y, 0.0));
         }
+        if let Some(g) = self.auto.as_ref().and_then(Auto::ready2) {
+            o = o.with_size(move |p| trussmesh::geometry::Implicit2::value(&*g, p));
+        }
         o = o.with_fixed(self.fix.iter().map(|p| [p[0], p[1]]));
         if let Some(e) = &self.internal {
             o = o.with_internal(ExprImplicit2 { expr: e.clone(), distance: !self.implicit });
@@ -452,6 +470,9 @@ impl Job {
             let h = h.clone();
             o = o.with_size(move |p| h.eval(p.x, p.y, p.z));
         }
+        if let Some(g) = self.auto.as_ref().and_then(Auto::ready3) {
+            o = o.with_size(move |p| trussmesh::geometry::Implicit3::value(&*g, p));
+        }
         o = o.with_fixed(self.fix.iter().map(|p| [p[0], p[1], p[2]]));
         if let Some(n) = self.max_iter {
             o = o.with_max_iter(n);
@@ -477,6 +498,16 @@ impl Job {
         result.map_err(|f| self.diagnose(f))
     }
 
+    /// Computes the `--size auto` grid (once) before the options use it.
+    fn prepare_auto(&self) -> Result<(), Failure> {
+        let (Some(a), b, d) = (&self.auto, &self.bbox, self.dim) else { return Ok(()) };
+        if d == 3 {
+            a.grid3(&self.geom3(), [b[0], b[1], b[2]], [b[3], b[4], b[5]]).map(|_| ())
+        } else {
+            a.grid2(&self.geom2(), [b[0], b[1]], [b[2], b[3]]).map(|_| ())
+        }
+    }
+
     /// The domain as the meshers see it.
     fn geom2(&self) -> ExprImplicit2 {
         ExprImplicit2 { expr: self.domain.clone(), distance: !self.implicit }
@@ -489,6 +520,7 @@ impl Job {
     /// The estimated element count of the mesher's survey (bad input fails here, before any
     /// meshing, as it would in the mesher).
     pub fn estimated_elements(&self) -> Result<f64, Failure> {
+        self.prepare_auto()?;
         let r = if self.dim == 3 {
             estimated_elements(Survey::Volume(&self.geom3(), &self.options3(None)))
         } else {

@@ -1,5 +1,6 @@
 //! The command line: subcommands, errors and exit codes (0 ok, 1 internal failure, 2 bad input).
 
+mod auto_size;
 mod budget;
 pub mod fuzz;
 mod gallery;

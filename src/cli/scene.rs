@@ -112,6 +112,7 @@ pub fn scene_spec(text: &str, name: &str) -> Result<Spec, Failure> {
         dim: s.dim.unwrap_or(2),
         domain: s.domain,
         size: s.size,
+        auto: Default::default(),
         h0: s.h0.text(),
         bbox: s.bbox.iter().map(Num::text).collect(),
         fix: s.fix.unwrap_or_default().iter().map(|p| p.iter().map(Num::text).collect()).collect(),

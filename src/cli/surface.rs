@@ -39,17 +39,25 @@ pub struct SurfaceArgs {
         conflicts_with = "bezier"
     )]
     pub bbox: Option<String>,
-    /// Target edge length (the smallest one with --curvature).
+    /// Target edge length (the smallest one with --size auto).
     #[arg(long, value_name = "H", allow_hyphen_values = true)]
     pub h0: String,
-    /// Sizes from curvature: K elements per radian, h = 1/(K |kappa|) clamped to [h0, hmax].
-    #[arg(long, value_name = "K", conflicts_with = "bezier", allow_hyphen_values = true)]
+    /// `auto`: sizes from curvature, h = 1/(K |kappa|) clamped to [h0, hmax], gradient limited
+    /// [default: uniform h0].
+    #[arg(long, value_name = "auto", conflicts_with = "bezier")]
+    pub size: Option<String>,
+    /// With --size auto: elements per radian of curvature [default: 2].
+    #[arg(long, value_name = "K", allow_hyphen_values = true)]
+    pub per_radian: Option<f64>,
+    /// The old spelling of --size auto --per-radian K.
+    #[arg(long, value_name = "K", hide = true, conflicts_with_all = ["bezier", "size", "per_radian"], allow_hyphen_values = true)]
     pub curvature: Option<f64>,
-    /// Gradient limit of the curvature sizes (default 0.3; needs --curvature).
-    #[arg(long, value_name = "G", requires = "curvature", allow_hyphen_values = true)]
+    /// With --size auto: gradient limit G, neighbouring sizes within a factor 1 + G
+    /// [default: 0.3].
+    #[arg(long, value_name = "G", allow_hyphen_values = true)]
     pub gradient: Option<f64>,
-    /// Largest size with --curvature (default 8 h0; needs --curvature).
-    #[arg(long, value_name = "H", requires = "curvature", allow_hyphen_values = true)]
+    /// With --size auto: the largest size [default: 8 h0].
+    #[arg(long, value_name = "H", allow_hyphen_values = true)]
     pub hmax: Option<f64>,
     /// Iteration cap of each force loop (one per level of the coarse-to-fine start).
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole_number::<usize>)]
@@ -118,7 +126,7 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
         "use a larger --h0",
     )?;
     let mut opts = SurfaceOptions::uniform(h0, lo, hi);
-    if let Some(k) = args.curvature {
+    if let Some(k) = curvature_k(&args)? {
         opts = opts.with_curvature(k, args.gradient.unwrap_or(0.3), args.hmax.unwrap_or(8.0 * h0));
     }
     if let Some(n) = args.max_iter {
@@ -140,6 +148,28 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+/// Elements per radian when the sizes come from curvature (`--size auto`, or the old
+/// `--curvature K`); the size flags without it are refused.
+fn curvature_k(args: &SurfaceArgs) -> Result<Option<f64>, Failure> {
+    let auto = match args.size.as_deref().map(str::trim) {
+        None => false,
+        Some(s) if s.eq_ignore_ascii_case("auto") => true,
+        Some(s) => {
+            return Err(Failure::bad(format!(
+                "surface --size takes auto (sizes from curvature), not {s:?}; give --h0 for uniform sizes"
+            )))
+        }
+    };
+    match (auto, args.curvature) {
+        (true, _) => Ok(Some(args.per_radian.unwrap_or(2.0))),
+        (false, Some(k)) => Ok(Some(k)),
+        (false, None) if args.per_radian.is_some() || args.gradient.is_some() || args.hmax.is_some() => {
+            Err(Failure::bad("--per-radian, --gradient and --hmax go with --size auto (or the old --curvature K)"))
+        }
+        (false, None) => Ok(None),
+    }
 }
 
 /// One patch as the JSON file gives it.

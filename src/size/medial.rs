@@ -122,7 +122,7 @@ pub fn medial_axis_2d(phi: &Grid2, params: &MedialAxisParams) -> MedialAxis {
 
 /// The crossing of the quadratics through (-2,a0),(-1,a1),(0,a2) and (1,b0),(2,b1),(3,b2):
 /// `(s0, d(p2 - p1)/ds at s0)` if it is unique in [0, 1] and the difference increases on [-2, 3].
-fn crossing(a: [f64; 3], b: [f64; 3]) -> Option<(f64, f64)> {
+pub(super) fn crossing(a: [f64; 3], b: [f64; 3]) -> Option<(f64, f64)> {
     // p1(s) = A1 s^2 + B1 s + C1.
     let a1 = 0.5 * (a[0] - 2.0 * a[1] + a[2]);
     let b1 = a1 + a[2] - a[1];

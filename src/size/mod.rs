@@ -9,6 +9,7 @@ mod heap;
 mod limit;
 mod march;
 mod medial;
+mod medial3;
 
 pub(crate) use curvature::max_principal;
 pub use curvature::{curvature_2d, curvature_3d, curvature_size_2d, curvature_size_3d};
@@ -19,6 +20,7 @@ pub use march::{
     fast_march_2d, fast_march_3d, reinitialize_2d, reinitialize_3d, signed_distance_2d, signed_distance_3d,
 };
 pub use medial::{feature_size_2d, medial_axis_2d, MedialAxis, MedialAxisParams};
+pub use medial3::{feature_size_3d, medial_axis_3d};
 
 use crate::geometry::{Grid2, Grid3, Implicit2, Implicit3};
 use crate::Error;
@@ -141,8 +143,10 @@ pub fn auto_size_2d(
     Ok(Grid2::new(phi.origin(), grid_h, nx, ny, h)?.with_distance(false))
 }
 
-/// 3-D automatic size function from curvature (maximum principal curvature, eq. 4.4) and
-/// gradient limiting; no feature size yet.
+/// 3-D automatic size function (seed section 4.5 in space): h_curv from the maximum principal
+/// curvature (eq. 4.4), h_lfs = lfs / R from the medial axis found along the grid lines of all
+/// three axes (Algorithm 4-1, eq. 4.6; `r` = 0 turns it off), h0 = min(h_curv, h_lfs, hmax)
+/// clamped below by hmin, then gradient limited with g.
 pub fn auto_size_3d(
     domain: &dyn Implicit3,
     bbox: [DVec3; 2],
@@ -158,6 +162,7 @@ pub fn auto_size_3d(
     } else {
         vec![f64::INFINITY; phi.values().len()]
     };
-    let h = finish(phi.values(), &hc, None, params, n, grid_h);
+    let lfs = (params.r > 0.0).then(|| feature_size_3d(&phi, &params.medial));
+    let h = finish(phi.values(), &hc, lfs.as_deref(), params, n, grid_h);
     Ok(Grid3::new(phi.origin(), grid_h, n, h)?.with_distance(false))
 }
