@@ -108,6 +108,10 @@ pub struct Report<Q> {
     pub metric: Option<super::metric::MetricStats>,
     /// For surfaces: the stages of the run.
     pub stages: Option<SurfaceStages>,
+    /// 2-D: when the iteration cap ended the force loop and an earlier state had a higher
+    /// smallest quality than the last one, the iteration of that state, which the run
+    /// finished from (the best mesh so far, as `max_iter` promises).
+    pub kept_iteration: Option<usize>,
 }
 
 impl<Q> Report<Q> {
@@ -126,6 +130,7 @@ impl<Q> Report<Q> {
             feature_points: self.feature_points,
             metric: self.metric,
             stages: self.stages,
+            kept_iteration: self.kept_iteration,
         }
     }
 

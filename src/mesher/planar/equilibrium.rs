@@ -1,3 +1,4 @@
+use super::best::{state_q_min, BestState};
 use super::*;
 use crate::mesher::StopReason;
 
@@ -65,6 +66,9 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     let mut swept = 0usize;
     let mut build_s = 0.0;
     let (mut full_s, mut part_s, mut full_n) = (0.0, 0.0, 0usize);
+    // The best state met, for the iteration cap (not in a moving-mesh step with frozen nodes,
+    // whose vertex keys must survive the loop).
+    let mut best = BestState::default();
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         eprintln!("equilibrium entered, peak {}", peak_memory());
         let mut val = [0usize; 12];
@@ -421,6 +425,12 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         }
         if iter % window == 0 {
             let q = mean_quality(ctx, &snap, &p);
+            if !ctx.freezing {
+                let q_min = state_q_min(ctx, &snap, &p);
+                #[cfg(test)]
+                super::best::OFFERED.with(|o| o.borrow_mut().push((iter, q_min)));
+                best.offer(m, &snap, &p, q_min, iter);
+            }
             if std::env::var_os("TRUSSMESH_TRACE").is_some() {
                 eprintln!(
                     "iter {iter}: q mean {q:.5}, max move {max_move:.2e}, {} vertices, flips {} splits {} collapses {} left {} joined {}",
@@ -449,6 +459,17 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         eprintln!("loop done, peak {}", peak_memory());
     }
+    // The iteration cap: the run finishes from the best state met when it beats the last.
+    if matches!(stop, StopReason::IterationCap { .. })
+        && best.iteration != 0
+        && best.q_min > state_q_min(ctx, &snap, &p)
+    {
+        *m = best.rebuild()?;
+        snap = Snapshot::build(m);
+        p = snap.ids.iter().map(|&v| m.pos(v)).collect();
+        ctx.report.kept_iteration = Some(best.iteration);
+    }
+    drop(best);
     // The loop's working arrays go before the final clean-up allocates (peak memory).
     drop((pold, newp, hv, moved, mv, slots, marks, tri_marks));
     // Every boundary node ends on d = 0.

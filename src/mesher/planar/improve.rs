@@ -125,10 +125,11 @@ pub(super) fn search(m: &mut TriMesh<DVec2>, g: &Geometry) -> Result<usize, Erro
         for (a, b) in edges {
             // The best of the three changes of this edge that passes.
             let mut best: Option<(Sums, TriMesh<DVec2>, Vec<VertexId>)> = None;
+            let Some(x) = (if m.contains_vertex(a) { m.find_half_edge(a, b) } else { None }) else { continue };
+            // The region and its sums are those of `m`, the same for the three trials.
+            let region = rings_around(m, &[a, b], RELAX_RINGS + 3);
+            let before = Sums::around(m, &region, g.h)?;
             for op in [Op::Collapse, Op::Split, Op::Flip] {
-                let Some(x) = (if m.contains_vertex(a) { m.find_half_edge(a, b) } else { None }) else { break };
-                let region = rings_around(m, &[a, b], RELAX_RINGS + 3);
-                let before = Sums::around(m, &region, g.h)?;
                 let mut trial = m.clone();
                 let Some(seeds) = apply(&mut trial, g, x, op)? else { continue };
                 relax(&mut trial, g, &seeds, scale)?;

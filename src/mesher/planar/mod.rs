@@ -5,6 +5,7 @@
 //!
 //! Set `TRUSSMESH_TRACE=1` to print the state every ten iterations (a development aid).
 
+mod best;
 mod boundary;
 mod carve;
 mod density;

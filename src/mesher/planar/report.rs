@@ -59,6 +59,9 @@ impl std::fmt::Display for Report<QualityStats> {
             "{} vertices, {} triangles in {:.3} s, {} iterations ({})",
             q.vertices, q.triangles, self.seconds, self.iterations, self.stop
         )?;
+        if let Some(k) = self.kept_iteration {
+            writeln!(f, "finished from the best state met, at iteration {k} (by the smallest quality)")?;
+        }
         writeln!(
             f,
             "q min {:.4}, q mean {:.4}, angles {:.1} to {:.1} degrees",

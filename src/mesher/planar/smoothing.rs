@@ -19,9 +19,16 @@ use slotmap::SecondaryMap;
 
 /// Sweeps over the interior nodes at most.
 pub(super) const SWEEPS: usize = 30;
-/// Meshes with more triangles are not polished: they are mostly the near-equilateral lattice
-/// interior, where the sweeps cost more than the force loop and gain nothing.
+/// Meshes with more triangles are polished only around their worst triangles (see
+/// [`WORST_QUEUE`]): they are mostly the near-equilateral lattice interior, where whole sweeps
+/// cost more than the force loop and gain nothing.
 pub(super) const POLISH_MAX_FACES: usize = 20_000;
+/// Above POLISH_MAX_FACES, the polish moves the nodes of at most this many of the worst
+/// triangles (those below WORST_Q) and their neighbours: the work is bounded by the queue,
+/// not by the mesh size, and the worst triangles get the same treatment at every size.
+pub(super) const WORST_QUEUE: usize = 4096;
+/// Triangles below this quality enter the worst-triangle queue of large meshes.
+pub(super) const WORST_Q: f64 = 0.9;
 /// A node that gains less merit than this in a try rests until a neighbour gains more.
 pub(super) const MOVE_GAIN: f64 = 1e-5;
 /// A sweep that gains less than this in summed quality per node ends the polish.
@@ -112,10 +119,47 @@ pub(super) const HALVINGS: usize = 6;
 /// nodes sliding along the boundary. Returns the number of sweeps made.
 pub(super) fn polish(m: &mut TriMesh<DVec2>, g: &Geometry) -> Result<usize, Error> {
     if m.num_faces() > POLISH_MAX_FACES {
-        return Ok(0);
+        return polish_worst(m, g);
     }
     let verts: Vec<VertexId> = m.vertex_ids().filter(|&v| movable(m, v)).collect();
     polish_nodes(m, g, &verts, SWEEPS, None)
+}
+
+/// The polish of a large mesh: the nodes of the worst triangles (at most WORST_QUEUE of them,
+/// below WORST_Q, worst first) and their neighbours, measured on the triangles there with the
+/// sums of the whole mesh. Returns the number of sweeps made.
+pub(super) fn polish_worst(m: &mut TriMesh<DVec2>, g: &Geometry) -> Result<usize, Error> {
+    let mut worst: Vec<(f64, FaceId)> =
+        m.face_ids().map(|f| (m.face_quality(f), f)).filter(|&(q, _)| q < WORST_Q).collect();
+    // Stable: equal qualities keep the mesh's face order (deterministic).
+    worst.sort_by(|x, y| x.0.total_cmp(&y.0));
+    worst.truncate(WORST_QUEUE);
+    if worst.is_empty() {
+        return Ok(0);
+    }
+    let mut seen: SecondaryMap<VertexId, ()> = SecondaryMap::new();
+    let mut verts = Vec::new();
+    for &(_, f) in &worst {
+        for v in m.face_vertices(f) {
+            for w in std::iter::once(v).chain(m.neighbours(v)) {
+                if seen.insert(w, ()).is_none() && movable(m, w) {
+                    verts.push(w);
+                }
+            }
+        }
+    }
+    // The sums of the whole mesh in one pass, without per-triangle maps (memory).
+    let mut whole = Sums { qmin: f64::INFINITY, ..Sums::default() };
+    for f in m.face_ids() {
+        let t = m.face_points(f);
+        let (q, r) = (crate::quality::triangle_q(t), rel_radius(t, g.h)?);
+        whole.n += 1.0;
+        whole.sq += q;
+        whole.s1 += r;
+        whole.s2 += r * r;
+        whole.qmin = whole.qmin.min(q);
+    }
+    polish_nodes(m, g, &verts, SWEEPS, Some(&whole))
 }
 
 /// Whether the polish moves `v`: an interior node, or a boundary node (along the boundary).
