@@ -43,7 +43,7 @@ impl From<ProjectionArg> for Projection {
     }
 }
 
-const FLAGS: [&str; 13] = [
+const FLAGS: [&str; 14] = [
     "dim",
     "domain",
     "size",
@@ -57,6 +57,7 @@ const FLAGS: [&str; 13] = [
     "internal",
     "metric",
     "no_sharp",
+    "feature_angle",
 ];
 
 /// Mesh {d < 0} given by expressions in x, y (z), or by a scene file.
@@ -70,7 +71,8 @@ pub struct MeshArgs {
     /// Dimension.
     #[arg(long, value_name = "2|3")]
     pub dim: Option<usize>,
-    /// The domain d(x, y) < 0 (a signed distance unless --implicit).
+    /// The domain d(x, y) < 0 (a signed distance unless --implicit), or with --dim 3 a closed
+    /// surface file (.stl .obj .ply .mesh .msh .vtu) whose inside is meshed.
     #[arg(long, value_name = "EXPR", allow_hyphen_values = true)]
     pub domain: Option<String>,
     /// Relative size h(x, y) (only ratios matter; default uniform).
@@ -109,6 +111,10 @@ pub struct MeshArgs {
     /// off unless given with --fix.
     #[arg(long)]
     pub no_sharp: bool,
+    /// With a surface file as --domain: edges whose triangles' normals differ by more than DEG
+    /// degrees are sharp features, held by the mesh (default 40).
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    pub feature_angle: Option<f64>,
     /// Output file; the extension picks the format (.json .vtu .msh .mesh .obj .stl .ply .svg .png).
     #[arg(short = 'o', long = "output", value_name = "FILE")]
     pub output: Vec<PathBuf>,
@@ -774,6 +780,9 @@ pub fn write_output(path: &Path, mesh: &MeshData, title: &str) -> Result<(), Fai
 
 /// `trussmesh mesh`.
 pub fn run(args: MeshArgs) -> Result<(), Failure> {
+    if let Some(file) = args.domain.as_deref().filter(|d| super::trisurf::is_surface_file(d)) {
+        return super::trisurf::run_mesh(&args, file);
+    }
     let job = args.spec()?.resolve()?;
     let done = job.mesh(args.quiet)?;
     let title = job.domain.source().to_string();

@@ -10,6 +10,7 @@ mod remesh;
 mod scene;
 mod stats;
 mod surface;
+mod trisurf;
 
 use clap::{Parser, Subcommand};
 use std::panic::{catch_unwind, AssertUnwindSafe};
