@@ -55,6 +55,37 @@ fn hausdorff(input: &TriSurface, other: &TriSurface) -> f64 {
     one(input, other).max(one(other, input))
 }
 
+/// The largest distance from points 0.1 h0 apart on the input's feature curves to the nearest
+/// feature edge of `out` (at the same feature angle), over h0, and the number of corners of `out`.
+fn feature_gap(input: &TriSurface, out: &TriSurface, h0: f64) -> (f64, usize) {
+    let fin = input.features(DEFAULT_FEATURE_ANGLE);
+    let fout = out.features(DEFAULT_FEATURE_ANGLE);
+    let bp = out.points();
+    let segs: Vec<(DVec3, DVec3)> = fout.edges.iter().map(|&[a, b]| (bp[a], bp[b])).collect();
+    let seg_dist = |q: DVec3, a: DVec3, b: DVec3| {
+        let t = ((q - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+        q.distance(a + (b - a) * t)
+    };
+    let worst = fin
+        .sample(input, &|_| 0.1 * h0)
+        .iter()
+        .map(|&q| segs.iter().map(|&(a, b)| seg_dist(q, a, b)).fold(f64::INFINITY, f64::min))
+        .fold(0.0, f64::max);
+    (worst / h0, fout.corners.len())
+}
+
+/// The target: every input feature edge within 0.05 h of an output edge chain.
+#[test]
+#[ignore = "not reached: on the part at h0 = 0.1 the input's feature curves are up to 0.28 h0 from the tet mesh boundary's feature edges (11 output corners for 8)"]
+fn volume_keeps_feature_curves() {
+    let surf = part();
+    let out = mesh_3d(&surf, &surf.volume_options(0.1, None, Some(DEFAULT_FEATURE_ANGLE))).unwrap();
+    let boundary = TriSurface::from_mesh_data(&tet_data(&out.mesh)).unwrap();
+    let (gap, corners) = feature_gap(&surf, &boundary, 0.1);
+    println!("gap {gap:.3} h0, {corners} corners");
+    assert!(gap <= 0.05 && corners == 8);
+}
+
 #[test]
 fn volume_meshes_inside_triangulated_input() {
     println!("| input | triangles in | h0 | tets | min dihedral | max dihedral | mean rr | volume error | boundary Hausdorff / diag | s |");
@@ -94,6 +125,10 @@ fn volume_meshes_inside_triangulated_input() {
         assert!(vol_err <= 0.01, "{name}: volume off by {vol_err}");
         assert!(haus <= 1e-2, "{name}: boundary Hausdorff distance {haus} of the diagonal");
         assert_eq!(boundary.euler_characteristic(), surf.euler_characteristic(), "{name}");
+        if sharp {
+            let (gap, corners) = feature_gap(&surf, &boundary, h0);
+            println!("{name}: input feature curves within {gap:.2e} h0 of the output's feature edges; {corners} output corners");
+        }
     }
 }
 
