@@ -125,6 +125,14 @@ fn bad_surfaces_exit_2_and_write_nothing() {
     sphere_stl(&d);
     let (code, _, err) = run(&d, &["mesh", "--dim", "2", "--domain", "s.stl", "--h0", "0.1", "-o", "out.vtu"]);
     assert_eq!(code, 2, "{err}");
+    for cmd in [&["mesh", "--dim", "3", "--domain"][..], &["surface", "--input"][..]] {
+        let mut a = cmd.to_vec();
+        a.extend(["s.stl", "--h0", "0.001", "--max-memory", "100M", "-o", "out.vtu"]);
+        let (code, _, err) = run(&d, &a);
+        println!("{}", err.trim());
+        assert_eq!(code, 2, "{err}");
+        assert!(err.contains("past the memory budget"), "{err}");
+    }
     let (code, _, err) =
         run(&d, &["mesh", "--dim", "3", "--domain", "s.stl", "--h0", "0.1", "--feature-angle", "0", "-o", "out.vtu"]);
     assert_eq!(code, 2, "{err}");

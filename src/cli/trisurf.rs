@@ -2,6 +2,7 @@
 //! the inside of a closed surface file, `trussmesh surface --input FILE` remeshes it (see
 //! docs/trisurf.md).
 
+use super::budget::{self, Budget};
 use super::mesh::{constant, parse_expr, split_top, MeshArgs};
 use super::surface::SurfaceArgs;
 use super::{output, Failure};
@@ -71,6 +72,26 @@ fn bbox(src: Option<&str>) -> Result<Option<[DVec3; 2]>, Failure> {
     Ok(Some([lo, hi]))
 }
 
+/// Bytes a checked input surface takes (points, triangles, neighbours, hierarchy, normals).
+const BYTES_PER_INPUT_TRIANGLE: f64 = 400.0;
+
+/// Refuses a run whose memory estimate passes `--max-memory` (elements at uniform size h0).
+fn check_budget(
+    max_memory: Option<&str>,
+    surf: &TriSurface,
+    what: &str,
+    elements: f64,
+    per: f64,
+) -> Result<(), Failure> {
+    let input = surf.triangles().len() as f64 * BYTES_PER_INPUT_TRIANGLE;
+    Budget::new(max_memory)?.check(
+        what,
+        budget::BASE_BYTES + input + elements * per,
+        &format!("about {} elements at about {per} bytes each, and the input's triangles", budget::count(elements)),
+        "use a larger --h0",
+    )
+}
+
 fn positive_h0(src: &str) -> Result<f64, Failure> {
     let h0 = constant("h0", src)?;
     if !(h0 > 0.0 && h0.is_finite()) {
@@ -95,6 +116,9 @@ pub fn run_mesh(args: &MeshArgs, file: &str) -> Result<(), Failure> {
     let h0 = positive_h0(args.h0.as_deref().ok_or_else(|| Failure::bad("missing --h0"))?)?;
     let angle = feature_angle(args.feature_angle, !args.no_sharp)?;
     let surf = read(file)?;
+    // A regular tet of edge h0 has volume h0^3 / (6 sqrt 2).
+    let tets = surf.volume() * 6.0 * 2f64.sqrt() / (h0 * h0 * h0);
+    check_budget(args.max_memory.as_deref(), &surf, "the tet mesh", tets, budget::BYTES_PER_TET)?;
     let size = args.size.as_deref().map(|s| size_expr(s, &surf)).transpose()?;
     let size_fn =
         size.map(|e| std::sync::Arc::new(move |p: DVec3| e.eval(p.x, p.y, p.z)) as trussmesh::mesher::SizeFn3);
@@ -151,6 +175,8 @@ pub fn run_surface(args: &SurfaceArgs, file: &Path, h0: f64) -> Result<(), Failu
     output::check_all(&args.output)?;
     let name = file.display().to_string();
     let surf = read(&name)?;
+    let triangles = surf.area() / (3f64.sqrt() / 4.0 * h0 * h0);
+    check_budget(args.max_memory.as_deref(), &surf, "the surface mesh", triangles, budget::BYTES_PER_SURFACE_TRIANGLE)?;
     let mut opts = surf.surface_options(h0);
     if let Some([lo, hi]) = bbox(args.bbox.as_deref())? {
         opts.bbox = [lo, hi];
