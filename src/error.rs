@@ -66,6 +66,9 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// A triangle mesh that bounds no solid (empty, open, non-manifold, self-intersecting).
+    #[error("bad surface: {0}")]
+    Surface(#[from] crate::geometry::trisurf::SurfaceError),
     /// Any other invalid option.
     #[error("invalid input: {0}")]
     Invalid(String),

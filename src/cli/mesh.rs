@@ -45,7 +45,7 @@ impl From<ProjectionArg> for Projection {
     }
 }
 
-const FLAGS: [&str; 17] = [
+const FLAGS: [&str; 18] = [
     "per_radian",
     "across",
     "gradient",
@@ -63,6 +63,7 @@ const FLAGS: [&str; 17] = [
     "internal",
     "metric",
     "no_sharp",
+    "feature_angle",
 ];
 
 /// Mesh {d < 0} given by expressions in x, y (z), or by a scene file.
@@ -76,7 +77,8 @@ pub struct MeshArgs {
     /// Dimension [default: 2].
     #[arg(long, value_name = "2|3")]
     pub dim: Option<usize>,
-    /// The domain d(x, y) < 0 (a signed distance unless --implicit).
+    /// The domain d(x, y) < 0 (a signed distance unless --implicit), or with --dim 3 a closed
+    /// surface file (.stl .obj .ply .mesh .msh .vtu) whose inside is meshed.
     #[arg(long, value_name = "EXPR", allow_hyphen_values = true, required_unless_present = "scene")]
     pub domain: Option<String>,
     /// Relative size h(x, y) (only ratios matter; default uniform), or `auto`: sizes from
@@ -118,6 +120,10 @@ pub struct MeshArgs {
     /// off unless given with --fix.
     #[arg(long)]
     pub no_sharp: bool,
+    /// With a surface file as --domain: edges whose triangles' normals differ by more than DEG
+    /// degrees are sharp features, held by the mesh (default 40).
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    pub feature_angle: Option<f64>,
     /// Output file; the extension picks the format (.json .vtu .msh .mesh .obj .stl .ply .svg .png).
     #[arg(short = 'o', long = "output", value_name = "FILE", required_unless_present = "scene")]
     pub output: Vec<PathBuf>,
@@ -752,6 +758,9 @@ pub fn write_output(job: &Job, path: &Path, done: &Meshed, title: &str) -> Resul
 
 /// `trussmesh mesh`.
 pub fn run(args: MeshArgs) -> Result<(), Failure> {
+    if let Some(file) = args.domain.as_deref().filter(|d| super::trisurf::is_surface_file(d)) {
+        return super::trisurf::run_mesh(&args, file);
+    }
     let job = args.spec()?.resolve()?;
     let done = job.mesh(args.quiet)?;
     let title = job.domain.source().to_string();

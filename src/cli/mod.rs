@@ -14,6 +14,7 @@ mod scene;
 mod stats;
 mod surface;
 mod surface_stats;
+mod trisurf;
 
 use clap::{Parser, Subcommand};
 use std::panic::{catch_unwind, AssertUnwindSafe};

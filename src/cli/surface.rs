@@ -21,10 +21,14 @@ pub struct SurfaceArgs {
         long,
         value_name = "EXPR",
         allow_hyphen_values = true,
-        required_unless_present = "bezier",
-        conflicts_with = "bezier"
+        required_unless_present_any = ["bezier", "input"],
+        conflicts_with_all = ["bezier", "input"]
     )]
     pub phi: Option<String>,
+    /// A closed triangulated surface to remesh instead of phi (.stl .obj .ply .mesh .msh .vtu;
+    /// the box from the file unless --bbox is given).
+    #[arg(long, value_name = "FILE", conflicts_with = "bezier")]
+    pub input: Option<PathBuf>,
     /// Rational Bézier patches instead of phi: a JSON file {"patches": [{"degree": [m, n],
     /// "control": [[x, y, z], ...], "weights": [...], "trim": "EXPR in u, v"}]} (control points
     /// u fastest; the patch keeps trim <= 0).
@@ -35,16 +39,17 @@ pub struct SurfaceArgs {
         long,
         value_name = "X0,Y0,Z0,X1,Y1,Z1",
         allow_hyphen_values = true,
-        required_unless_present = "bezier",
+        required_unless_present_any = ["bezier", "input"],
         conflicts_with = "bezier"
     )]
     pub bbox: Option<String>,
     /// Target edge length (the smallest one with --size auto).
     #[arg(long, value_name = "H", allow_hyphen_values = true)]
     pub h0: String,
-    /// `auto`: sizes from curvature, h = 1/(K |kappa|) clamped to [h0, hmax], gradient limited
-    /// [default: uniform h0].
-    #[arg(long, value_name = "auto", conflicts_with = "bezier")]
+    /// `auto`: sizes from curvature, h = 1/(K |kappa|) clamped to [h0, hmax], gradient limited;
+    /// with --input, a relative size h(x, y, z) instead (only ratios matter: the smallest near
+    /// the surface becomes h0) [default: uniform h0].
+    #[arg(long, value_name = "auto|EXPR", allow_hyphen_values = true, conflicts_with = "bezier")]
     pub size: Option<String>,
     /// With --size auto: elements per radian of curvature [default: 2].
     #[arg(long, value_name = "K", allow_hyphen_values = true)]
@@ -85,6 +90,9 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
     }
     if let Some(path) = &args.bezier {
         return run_bezier(path, h0, &args, &budget);
+    }
+    if let Some(path) = &args.input {
+        return super::trisurf::run_surface(&args, path, h0);
     }
     let (Some(phi_src), Some(bbox_src)) = (&args.phi, &args.bbox) else {
         return Err(Failure::bad("--phi and --bbox are needed without --bezier"));

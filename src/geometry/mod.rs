@@ -14,6 +14,7 @@ pub mod project;
 #[cfg(test)]
 mod testing;
 mod transform;
+pub mod trisurf;
 
 pub use csg::{
     difference, exact_corners, intersection, union, Difference, ExactCorners, Intersection, Shape2, Shape3, Union,
@@ -24,6 +25,7 @@ pub use primitives2::{Circle, Ellipse, Polygon, Rectangle};
 pub use primitives3::{Ball, Box3, Cylinder};
 pub use project::{newton_distance2, newton_distance3, project2, project3, ProjectError, Projection};
 pub use transform::{Implicit2Ext, Implicit3Ext, Rotate, Scale, Translate};
+pub use trisurf::TriSurface;
 
 /// A 2-D implicit function. `value` is negative inside.
 pub trait Implicit2: Sync + Send {

@@ -48,6 +48,9 @@ pub struct SurfaceOptions {
     /// Progress callback, called as (stages done, stages): the start, each level of the
     /// coarse-to-fine start (remeshing, force loop, subdivision), the length equalisation.
     pub progress: Option<ProgressFn>,
+    /// Relative sizes h(x) (only ratios matter: the smallest near the surface becomes h0),
+    /// sampled on a grid of spacing h0 / 2 over the box padded by 2 h0; not with curvature sizes.
+    pub relative_size: Option<crate::mesher::SizeFn3>,
 }
 
 impl std::fmt::Debug for SurfaceOptions {
@@ -61,6 +64,7 @@ impl std::fmt::Debug for SurfaceOptions {
             .field("deltat", &self.deltat)
             .field("dptol", &self.dptol)
             .field("progress", &self.progress.as_ref().map(|_| "fn"))
+            .field("relative_size", &self.relative_size.as_ref().map(|_| "fn"))
             .finish()
     }
 }
@@ -86,7 +90,13 @@ impl SurfaceOptions {
             deltat: Self::DEFAULT_DELTAT,
             dptol: Self::DEFAULT_DPTOL,
             progress: None,
+            relative_size: None,
         }
+    }
+    /// Relative sizes h(x): see [`SurfaceOptions::relative_size`].
+    pub fn with_size(mut self, h: impl Fn(DVec3) -> f64 + Send + Sync + 'static) -> Self {
+        self.relative_size = Some(std::sync::Arc::new(h));
+        self
     }
     /// Sizes from curvature (see [`SurfaceSize::Curvature`]).
     pub fn with_curvature(mut self, k: f64, g: f64, hmax: f64) -> Self {
@@ -103,6 +113,9 @@ impl SurfaceOptions {
                 )));
             }
         }
+        if self.relative_size.is_some() && self.size != SurfaceSize::Uniform {
+            return Err(Error::Invalid("relative sizes and curvature sizes cannot be combined".into()));
+        }
         let ok = |v: f64| v > 0.0 && v.is_finite();
         if !(ok(self.fscale) && ok(self.deltat) && ok(self.dptol)) {
             return Err(Error::Invalid(format!(
@@ -118,6 +131,7 @@ impl SurfaceOptions {
     /// would be too large).
     pub(super) fn size_field(&self, phi: &dyn Implicit3) -> Result<SizeField, Error> {
         Ok(match self.size {
+            SurfaceSize::Uniform if self.relative_size.is_some() => self.relative_field(phi)?,
             SurfaceSize::Uniform => SizeField::Uniform(self.h0),
             SurfaceSize::Curvature { k, g, hmax } => {
                 // The size grid has spacing h0/2 over the padded box: refuse before allocating it.
@@ -133,6 +147,43 @@ impl SurfaceOptions {
                 SizeField::Grid(grid)
             }
         })
+    }
+}
+
+impl SurfaceOptions {
+    /// The grid of relative sizes scaled so that the smallest at a node within h0 of the
+    /// surface (|phi| / |grad phi|) is h0.
+    fn relative_field(&self, phi: &dyn Implicit3) -> Result<SizeField, Error> {
+        let Some(h) = &self.relative_size else { return Ok(SizeField::Uniform(self.h0)) };
+        let span = self.bbox[1] - self.bbox[0] + DVec3::splat(4.0 * self.h0);
+        let nodes = (span / (0.5 * self.h0)).ceil() + DVec3::ONE;
+        let estimated = nodes.x * nodes.y * nodes.z;
+        if estimated > MAX_GRID_NODES as f64 {
+            return Err(Error::TooManyElements { estimated: estimated as u64, limit: MAX_GRID_NODES });
+        }
+        let pad = DVec3::splat(2.0 * self.h0);
+        let (lo, hi) = (self.bbox[0] - pad, self.bbox[1] + pad);
+        let h = h.clone();
+        let raw = crate::geometry::Grid3::sample(&move |p: DVec3| h(p), lo, hi, 0.5 * self.h0)?;
+        let dims = raw.dims();
+        let mut smin = f64::INFINITY;
+        for (i, &v) in raw.values().iter().enumerate() {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(Error::BadSize(format!("the relative size is {v} at a grid node; it must be positive")));
+            }
+            let (x, y, z) = (i % dims[0], (i / dims[0]) % dims[1], i / (dims[0] * dims[1]));
+            let p = raw.origin() + DVec3::new(x as f64, y as f64, z as f64) * raw.spacing();
+            if crate::mesher::surface::geom::residual(phi, p) <= self.h0 {
+                smin = smin.min(v);
+            }
+        }
+        if !smin.is_finite() {
+            return Err(Error::EmptyDomain("no grid node of the size field lies near the surface".into()));
+        }
+        let values = raw.values().iter().map(|v| self.h0 * v / smin).collect();
+        Ok(SizeField::Grid(
+            crate::geometry::Grid3::new(raw.origin(), raw.spacing(), dims, values)?.with_distance(false),
+        ))
     }
 }
 

@@ -1,0 +1,52 @@
+//! The meshers' options for a triangulated geometry: the box from the input, and for
+//! tetrahedra the input's sharp features held as fixed points.
+
+use super::TriSurface;
+use crate::mesher::{Options3, SizeFn3};
+use crate::surface::SurfaceOptions;
+use glam::DVec3;
+
+impl TriSurface {
+    /// The bounding box grown by max(h0, 1e-3 of its diagonal) on every side: a box for the
+    /// meshers that holds the whole surface with room for the start lattice.
+    pub fn padded_box(&self, h0: f64) -> [DVec3; 2] {
+        let [lo, hi] = self.bbox;
+        let pad = DVec3::splat(h0.max(1e-3 * (hi - lo).length()));
+        [lo - pad, hi + pad]
+    }
+
+    /// Options of [`crate::mesh_3d`] for the inside of this surface: the padded box, relative
+    /// sizes `size` (None: uniform), and with `feature_angle` Some(deg) the points of
+    /// [`TriSurface::features`] at that angle held fixed, about one local edge length apart
+    /// (h0 times size / the smallest size at an input vertex), in place of the mesher's own search
+    /// for sharp edges from d. With None, no sharp edge is held.
+    pub fn volume_options(&self, h0: f64, size: Option<SizeFn3>, feature_angle: Option<f64>) -> Options3 {
+        let [lo, hi] = self.padded_box(h0);
+        let mut o = Options3::uniform(h0, lo, hi).with_sharp_edges(false);
+        let smin = match &size {
+            Some(h) => {
+                self.points.iter().map(|&p| h(p)).filter(|v| *v > 0.0 && v.is_finite()).fold(f64::INFINITY, f64::min)
+            }
+            None => 1.0,
+        };
+        if let Some(angle) = feature_angle {
+            let features = self.features(angle);
+            let spacing = |p: DVec3| match &size {
+                Some(h) if smin.is_finite() => h0 * h(p) / smin,
+                _ => h0,
+            };
+            o = o.with_fixed(features.sample(self, &spacing));
+        }
+        if let Some(h) = size {
+            o.size = Some(h);
+        }
+        o
+    }
+
+    /// Options of [`crate::mesh_surface`] that remesh this surface at edge length `h0`: the
+    /// padded box, uniform size.
+    pub fn surface_options(&self, h0: f64) -> SurfaceOptions {
+        let [lo, hi] = self.padded_box(h0);
+        SurfaceOptions::uniform(h0, lo, hi)
+    }
+}

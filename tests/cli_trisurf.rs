@@ -1,0 +1,140 @@
+//! Triangulated geometry on the command line: `mesh --dim 3 --domain FILE` and `surface --input
+//! FILE` on a surface the command line wrote itself, and every bad surface refused with exit 2
+//! and nothing written.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn tmp(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli_trisurf").join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(dir: &Path, args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_trussmesh")).args(args).current_dir(dir).output().unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn sphere_stl(d: &Path) {
+    let (code, _, err) = run(
+        d,
+        &[
+            "surface",
+            "--phi",
+            "sqrt(x^2+y^2+z^2)-1",
+            "--bbox",
+            "-1.2,-1.2,-1.2,1.2,1.2,1.2",
+            "--h0",
+            "0.2",
+            "-q",
+            "-o",
+            "s.stl",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+}
+
+#[test]
+fn meshes_inside_and_remeshes_a_surface_file() {
+    let d = tmp("run");
+    sphere_stl(&d);
+    let (code, out, err) =
+        run(&d, &["mesh", "--dim", "3", "--domain", "s.stl", "--h0", "0.25", "-o", "v.vtu", "-o", "v.mesh"]);
+    assert_eq!(code, 0, "{err}");
+    println!("{out}");
+    assert!(d.join("v.vtu").exists() && d.join("v.mesh").exists());
+    let (code, stats, err) = run(&d, &["stats", "v.vtu", "--check"]);
+    assert_eq!(code, 0, "{err}");
+    println!("{stats}");
+    // The tet mesh's boundary is a closed surface again: mesh inside it.
+    let (code, _, err) = run(
+        &d,
+        &["mesh", "--dim", "3", "--domain", "v.mesh", "--h0", "0.3", "--size", "1+0.5*abs(x)", "-q", "-o", "w.msh"],
+    );
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) = run(&d, &["surface", "--input", "s.stl", "--h0", "0.15", "-o", "r.obj"]);
+    assert_eq!(code, 0, "{err}");
+    println!("{out}");
+    let (code, _, err) =
+        run(&d, &["surface", "--input", "r.obj", "--h0", "0.1", "--size", "1+abs(z)", "-q", "-o", "r2.ply"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(d.join("r2.ply").exists());
+}
+
+/// An OBJ file of the given vertices and triangles (1-based in the file).
+fn obj(d: &Path, name: &str, pts: &[[f64; 3]], tris: &[[usize; 3]]) {
+    let mut s = String::new();
+    for p in pts {
+        s.push_str(&format!("v {} {} {}\n", p[0], p[1], p[2]));
+    }
+    for t in tris {
+        s.push_str(&format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1));
+    }
+    std::fs::write(d.join(name), s).unwrap();
+}
+
+const TET: [[f64; 3]; 4] = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+const TET_FACES: [[usize; 3]; 4] = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
+
+#[test]
+fn bad_surfaces_exit_2_and_write_nothing() {
+    let d = tmp("bad");
+    std::fs::write(d.join("empty.stl"), b"").unwrap();
+    // A binary STL whose header claims 3 triangles but holds one.
+    let mut stl = vec![0u8; 80];
+    stl.extend(3u32.to_le_bytes());
+    stl.extend([0u8; 50]);
+    std::fs::write(d.join("short.stl"), &stl).unwrap();
+    obj(&d, "open.obj", &TET, &TET_FACES[..3]);
+    // Two tetrahedra sharing the edge from vertex 0 to vertex 3 only: four triangles on it.
+    let mut two = TET.to_vec();
+    two.extend([[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]);
+    let mut faces = TET_FACES.to_vec();
+    faces.extend([[0, 5, 4], [0, 4, 3], [4, 5, 3], [0, 3, 5]]);
+    obj(&d, "fin.obj", &two, &faces);
+    // Two overlapping tetrahedra.
+    let mut cross = TET.to_vec();
+    cross.extend(TET.iter().map(|p| [p[0] + 0.2, p[1] + 0.2, p[2] + 0.2]));
+    let mut faces = TET_FACES.to_vec();
+    faces.extend(TET_FACES.iter().map(|t| t.map(|v| v + 4)));
+    obj(&d, "cross.obj", &cross, &faces);
+    let cases = [
+        ("empty.stl", "empty"),
+        ("short.stl", "claims 3 triangles"),
+        ("open.obj", "open"),
+        ("fin.obj", "non-manifold"),
+        ("cross.obj", "intersects itself"),
+        ("missing.stl", "does not exist"),
+    ];
+    for (file, says) in cases {
+        let (code, _, err) = run(&d, &["mesh", "--dim", "3", "--domain", file, "--h0", "0.1", "-o", "out.vtu"]);
+        println!("mesh {file}: {}", err.trim());
+        assert_eq!(code, 2, "{file}: {err}");
+        assert!(err.contains(says), "{file}: {err}");
+        let (code, _, err) = run(&d, &["surface", "--input", file, "--h0", "0.1", "-o", "out.obj"]);
+        assert_eq!(code, 2, "{file}: {err}");
+        assert!(err.contains(says), "{file}: {err}");
+        assert!(!d.join("out.vtu").exists() && !d.join("out.obj").exists(), "{file}: an output was written");
+    }
+    sphere_stl(&d);
+    let (code, _, err) = run(&d, &["mesh", "--dim", "2", "--domain", "s.stl", "--h0", "0.1", "-o", "out.vtu"]);
+    assert_eq!(code, 2, "{err}");
+    for cmd in [&["mesh", "--dim", "3", "--domain"][..], &["surface", "--input"][..]] {
+        let mut a = cmd.to_vec();
+        a.extend(["s.stl", "--h0", "0.001", "--max-memory", "100M", "-o", "out.vtu"]);
+        let (code, _, err) = run(&d, &a);
+        println!("{}", err.trim());
+        assert_eq!(code, 2, "{err}");
+        assert!(err.contains("past the memory budget"), "{err}");
+    }
+    let (code, _, err) =
+        run(&d, &["mesh", "--dim", "3", "--domain", "s.stl", "--h0", "0.1", "--feature-angle", "0", "-o", "out.vtu"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(!d.join("out.vtu").exists());
+}

@@ -1,0 +1,109 @@
+//! Closed triangle meshes the project makes itself, for the triangulated-geometry tests: a
+//! sphere and a torus from the surface mesher, a noisy sphere (every vertex moved radially by up
+//! to 1%, like a scan), and a CSG part with exact sharp edges (a square minus a disk meshed by
+//! the 2-D mesher, extruded: the box [-1, 1]^2 x [-0.5, 0.5] minus a cylinder of radius 0.4).
+#![allow(dead_code)]
+
+use glam::DVec3;
+use std::collections::HashMap;
+use trussmesh::geometry::{difference, Circle, Rectangle, TriSurface};
+use trussmesh::io::MeshData;
+use trussmesh::testing::{Rng, SEED};
+use trussmesh::{mesh_2d, mesh_surface, Options2, SurfaceOptions};
+
+pub fn sphere_phi(p: DVec3) -> f64 {
+    p.length() - 1.0
+}
+
+pub fn torus_phi(p: DVec3) -> f64 {
+    let rho = (p.x * p.x + p.y * p.y).sqrt() - 1.0;
+    (rho * rho + p.z * p.z).sqrt() - 0.35
+}
+
+/// The part's exact signed distance is not needed; its inside test is.
+pub fn part_inside(p: DVec3) -> bool {
+    p.x.abs() < 1.0 && p.y.abs() < 1.0 && p.z.abs() < 0.5 && p.x.hypot(p.y) > 0.4
+}
+
+/// Distance from the part's boundary, for points not within it.
+pub fn part_clearance(p: DVec3) -> f64 {
+    let faces =
+        [(1.0 - p.x.abs()).abs(), (1.0 - p.y.abs()).abs(), (0.5 - p.z.abs()).abs(), (p.x.hypot(p.y) - 0.4).abs()];
+    faces.into_iter().fold(f64::INFINITY, f64::min)
+}
+
+pub const PART_VOLUME: f64 = 4.0 - std::f64::consts::PI * 0.16;
+
+pub fn from_surface_mesher(phi: fn(DVec3) -> f64, h: f64, r: f64) -> TriSurface {
+    let out = mesh_surface(&phi, &SurfaceOptions::uniform(h, [-r; 3], [r; 3])).expect("surface mesh");
+    TriSurface::from_mesh_data(&MeshData::from_trimesh3(&out.mesh)).expect("closed surface")
+}
+
+pub fn noisy(s: &TriSurface) -> TriSurface {
+    let mut rng = Rng::new(SEED ^ 7);
+    let pts: Vec<[f64; 3]> = s.points().iter().map(|p| (*p * (1.0 + rng.range(-0.01, 0.01))).to_array()).collect();
+    TriSurface::new(pts, s.triangles().to_vec()).expect("noisy sphere")
+}
+
+/// The part at edge length about `h`: top and bottom from the 2-D mesh, walls in layers.
+pub fn part(h: f64) -> TriSurface {
+    let domain = difference(Rectangle::new([-1.0, -1.0], [1.0, 1.0]), Circle::new([0.0, 0.0], 0.4));
+    let out = mesh_2d(&domain, &Options2::uniform(h, [-1.0, -1.0], [1.0, 1.0])).expect("2-D part");
+    let a = out.mesh.to_arrays();
+    let n = a.points.len();
+    let layers = (1.0 / h).round().max(1.0) as usize;
+    let mut pts: Vec<[f64; 3]> = Vec::new();
+    for z in [-0.5, 0.5] {
+        pts.extend(a.points.iter().map(|p| [p.x, p.y, z]));
+    }
+    let mut tris: Vec<[usize; 3]> = Vec::new();
+    for c in &a.cells {
+        tris.push([c[0] + n, c[1] + n, c[2] + n]);
+        tris.push([c[0], c[2], c[1]]);
+    }
+    // Boundary edges of the planar mesh (used by one triangle), each a wall of `layers` rows.
+    let mut count: HashMap<(usize, usize), usize> = HashMap::new();
+    for c in &a.cells {
+        for k in 0..3 {
+            let (u, v) = (c[k], c[(k + 1) % 3]);
+            *count.entry((u.min(v), u.max(v))).or_insert(0) += 1;
+        }
+    }
+    let mut ring: HashMap<usize, Vec<usize>> = HashMap::new();
+    let level = |v: usize, l: usize, pts: &mut Vec<[f64; 3]>, ring: &mut HashMap<usize, Vec<usize>>| -> usize {
+        if l == 0 {
+            return v;
+        }
+        if l == layers {
+            return v + n;
+        }
+        let r = ring.entry(v).or_insert_with(|| {
+            (1..layers)
+                .map(|i| {
+                    let p = a.points[v];
+                    pts.push([p.x, p.y, -0.5 + i as f64 / layers as f64]);
+                    pts.len() - 1
+                })
+                .collect()
+        });
+        r[l - 1]
+    };
+    let mut edges: Vec<(usize, usize)> = Vec::new();
+    for c in &a.cells {
+        for k in 0..3 {
+            let (u, v) = (c[k], c[(k + 1) % 3]);
+            if count[&(u.min(v), u.max(v))] == 1 {
+                edges.push((u, v));
+            }
+        }
+    }
+    for (u, v) in edges {
+        for l in 0..layers {
+            let (u0, v0) = (level(u, l, &mut pts, &mut ring), level(v, l, &mut pts, &mut ring));
+            let (u1, v1) = (level(u, l + 1, &mut pts, &mut ring), level(v, l + 1, &mut pts, &mut ring));
+            tris.push([u0, v0, v1]);
+            tris.push([u0, v1, u1]);
+        }
+    }
+    TriSurface::new(pts, tris).expect("part surface")
+}

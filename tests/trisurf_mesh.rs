@@ -1,0 +1,182 @@
+//! Meshing triangulated geometry (docs/trisurf.md): tetrahedra inside and surface triangles on
+//! closed triangle meshes the project makes itself, with the targets of the triangulated
+//! geometry issue. Prints the tables kept in docs/trisurf.md (`--nocapture`).
+
+use glam::DVec3;
+use trussmesh::geometry::trisurf::DEFAULT_FEATURE_ANGLE;
+use trussmesh::geometry::TriSurface;
+use trussmesh::io::{CellType, MeshData};
+use trussmesh::{mesh_3d, mesh_surface};
+
+mod trisurf_inputs;
+use trisurf_inputs::{from_surface_mesher, noisy, sphere_phi, torus_phi};
+
+fn sphere() -> TriSurface {
+    from_surface_mesher(sphere_phi, 0.1, 1.2)
+}
+
+fn torus() -> TriSurface {
+    from_surface_mesher(torus_phi, 0.07, 1.5)
+}
+
+fn part() -> TriSurface {
+    trisurf_inputs::part(0.08)
+}
+
+fn tet_data(m: &trussmesh::topology::TetMesh) -> MeshData {
+    let a = m.to_arrays();
+    MeshData {
+        dim: 3,
+        cell_type: CellType::Tetra,
+        points: a.points.iter().map(|p| p.to_array()).collect(),
+        cells: a.cells.iter().flatten().copied().collect(),
+        subdomain: None,
+    }
+}
+
+fn tet_volume(d: &MeshData) -> f64 {
+    (0..d.num_cells())
+        .map(|i| {
+            let c = d.cell(i);
+            let [a, b, cc, e] = [c[0], c[1], c[2], c[3]].map(|v| DVec3::from_array(d.points[v]));
+            (b - a).dot((cc - a).cross(e - a)) / 6.0
+        })
+        .sum()
+}
+
+/// The largest distance from the input's vertices and triangle centroids to `other`, and from
+/// `other`'s to the input: the two-sided Hausdorff distance, sampled at vertices and centroids.
+fn hausdorff(input: &TriSurface, other: &TriSurface) -> f64 {
+    let one = |a: &TriSurface, b: &TriSurface| {
+        let p = a.points();
+        let cen = a.triangles().iter().map(|t| (p[t[0]] + p[t[1]] + p[t[2]]) / 3.0);
+        p.iter().copied().chain(cen).map(|q| b.closest(q).dist2.sqrt()).fold(0.0, f64::max)
+    };
+    one(input, other).max(one(other, input))
+}
+
+/// The largest distance from points 0.1 h0 apart on the input's feature curves to the nearest
+/// feature edge of `out` (at the same feature angle), over h0, and the number of corners of `out`.
+fn feature_gap(input: &TriSurface, out: &TriSurface, h0: f64) -> (f64, usize) {
+    let fin = input.features(DEFAULT_FEATURE_ANGLE);
+    let fout = out.features(DEFAULT_FEATURE_ANGLE);
+    let bp = out.points();
+    let segs: Vec<(DVec3, DVec3)> = fout.edges.iter().map(|&[a, b]| (bp[a], bp[b])).collect();
+    let seg_dist = |q: DVec3, a: DVec3, b: DVec3| {
+        let t = ((q - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+        q.distance(a + (b - a) * t)
+    };
+    let worst = fin
+        .sample(input, &|_| 0.1 * h0)
+        .iter()
+        .map(|&q| segs.iter().map(|&(a, b)| seg_dist(q, a, b)).fold(f64::INFINITY, f64::min))
+        .fold(0.0, f64::max);
+    (worst / h0, fout.corners.len())
+}
+
+/// The issue's target: every input feature edge within 0.05 h of an output edge chain.
+#[test]
+#[ignore = "not reached: on the part at h0 = 0.1 the input's feature curves are up to 0.28 h0 from the tet mesh boundary's feature edges (11 output corners for 8)"]
+fn volume_keeps_feature_curves() {
+    let surf = part();
+    let out = mesh_3d(&surf, &surf.volume_options(0.1, None, Some(DEFAULT_FEATURE_ANGLE))).unwrap();
+    let boundary = TriSurface::from_mesh_data(&tet_data(&out.mesh)).unwrap();
+    let (gap, corners) = feature_gap(&surf, &boundary, 0.1);
+    println!("gap {gap:.3} h0, {corners} corners");
+    assert!(gap <= 0.05 && corners == 8);
+}
+
+#[test]
+fn volume_meshes_inside_triangulated_input() {
+    println!("| input | triangles in | h0 | tets | min dihedral | max dihedral | mean rr | volume error | boundary Hausdorff / diag | s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    let s = sphere();
+    let cases = [
+        ("sphere", s.clone(), 0.12, false),
+        ("torus", torus(), 0.08, false),
+        ("noisy sphere", noisy(&s), 0.12, false),
+        ("part", part(), 0.1, true),
+    ];
+    for (name, surf, h0, sharp) in cases {
+        let opts = surf.volume_options(h0, None, Some(DEFAULT_FEATURE_ANGLE));
+        let out = mesh_3d(&surf, &opts).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let data = tet_data(&out.mesh);
+        let vol_err = (tet_volume(&data) / surf.volume() - 1.0).abs();
+        let boundary = TriSurface::from_mesh_data(&data).expect("closed boundary");
+        let [lo, hi] = surf.bbox();
+        let haus = hausdorff(&surf, &boundary) / (hi - lo).length();
+        let q = &out.report.quality;
+        println!(
+            "| {name} | {} | {h0} | {} | {:.1} | {:.1} | {:.3} | {:.2}% | {:.1e} | {:.1} |",
+            surf.triangles().len(),
+            q.tets,
+            q.dihedral_min,
+            q.dihedral_max,
+            q.rr_mean,
+            100.0 * vol_err,
+            haus,
+            out.report.seconds
+        );
+        // The issue's targets: min dihedral >= 30 smooth, >= 25 with sharp edges; mean radius
+        // ratio >= 0.88; volume within 1% of the input's.
+        let target = if sharp { 25.0 } else { 30.0 };
+        assert!(q.dihedral_min >= target, "{name}: min dihedral {}", q.dihedral_min);
+        assert!(q.rr_mean >= 0.88, "{name}: mean radius ratio {}", q.rr_mean);
+        assert!(vol_err <= 0.01, "{name}: volume off by {vol_err}");
+        assert!(haus <= 1e-2, "{name}: boundary Hausdorff distance {haus} of the diagonal");
+        assert_eq!(boundary.euler_characteristic(), surf.euler_characteristic(), "{name}");
+        if sharp {
+            let (gap, corners) = feature_gap(&surf, &boundary, h0);
+            println!("{name}: input feature curves within {gap:.2e} h0 of the output's feature edges; {corners} output corners");
+        }
+    }
+}
+
+#[test]
+fn surface_remeshes_triangulated_input() {
+    println!("| input | triangles in | h0 | triangles out | Euler | min angle | max angle | mean q | size dev | Hausdorff / diag | s |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    let s = sphere();
+    let cases = [("sphere", s.clone(), 0.12), ("torus", torus(), 0.08), ("noisy sphere", noisy(&s), 0.12)];
+    for (name, surf, h0) in cases {
+        let out = mesh_surface(&surf, &surf.surface_options(h0)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let q = &out.report.quality;
+        let remeshed = TriSurface::from_mesh_data(&MeshData::from_trimesh3(&out.mesh)).expect("closed output");
+        let [lo, hi] = surf.bbox();
+        let haus = hausdorff(&surf, &remeshed) / (hi - lo).length();
+        println!(
+            "| {name} | {} | {h0} | {} | {} | {:.1} | {:.1} | {:.4} | {:.1}% | {:.1e} | {:.1} |",
+            surf.triangles().len(),
+            q.triangles,
+            q.euler,
+            q.min_angle,
+            q.max_angle,
+            q.mean_q,
+            100.0 * q.size_deviation,
+            haus,
+            out.report.seconds
+        );
+        assert!(q.closed_manifold, "{name}");
+        assert_eq!(q.euler, surf.euler_characteristic(), "{name}");
+        // The issue's targets on smooth input: min angle >= 35, mean q >= 0.97, size deviation
+        // <= 8%, and the remeshed surface within 5e-3 of the diagonal of the input both ways.
+        assert!(q.min_angle >= 35.0, "{name}: min angle {}", q.min_angle);
+        assert!(q.mean_q >= 0.97, "{name}: mean q {}", q.mean_q);
+        assert!(q.size_deviation <= 0.08, "{name}: size deviation {}", q.size_deviation);
+        assert!(haus < 5e-3, "{name}: Hausdorff {haus}");
+    }
+}
+
+/// Surface remeshing of input with sharp edges: the surface mesher does not hold the input's
+/// feature curves yet, so the edges are rounded and the mesh folds across them.
+#[test]
+#[ignore = "surface remeshing keeps no sharp feature yet: on the part at h0 = 0.1 the output intersects itself near its edges (measured: triangles 398 and 553 cross near (-0.64, 0.91, -0.5))"]
+fn surface_remeshes_sharp_input() {
+    let surf = part();
+    let out = mesh_surface(&surf, &surf.surface_options(0.1)).unwrap();
+    let q = &out.report.quality;
+    println!("part: min angle {:.1}, mean q {:.4}, size dev {:.1}%", q.min_angle, q.mean_q, 100.0 * q.size_deviation);
+    TriSurface::from_mesh_data(&MeshData::from_trimesh3(&out.mesh))
+        .expect("a closed surface without self-intersection");
+    assert!(q.min_angle >= 30.0 && q.mean_q >= 0.97 && q.size_deviation <= 0.08);
+}
