@@ -11,7 +11,9 @@
 
 mod delaunay;
 mod disjoint_sets;
+mod embedding;
 mod incidence;
+mod intersect;
 mod tet_collapse;
 mod tet_delaunay;
 mod tet_delaunay_kernel;
