@@ -50,36 +50,50 @@ fn upper_ref(v: DVec2, r: DVec2, p: DVec2) -> bool {
     }
 }
 
+/// Whether the fan of sectors (b, c) around v (each triangle (v, b, c) positive) turns exactly
+/// once around v (`boundary_start` none: an interior vertex) or by less than 2 pi starting
+/// from the ray towards `boundary_start` (a boundary vertex). Exact (see the module notes);
+/// shared by `validate` and the 2-D step control.
+pub(crate) fn fan_winds_once(
+    v: DVec2,
+    sectors: impl Iterator<Item = (DVec2, DVec2)>,
+    boundary_start: Option<DVec2>,
+) -> bool {
+    let mut crossings = 0u32;
+    for (b, c) in sectors {
+        let (ub, uc) = match boundary_start {
+            Some(r) => (upper_ref(v, r, b), upper_ref(v, r, c)),
+            None => (upper_x(v, b), upper_x(v, c)),
+        };
+        if !ub && uc {
+            crossings += 1;
+        }
+    }
+    if boundary_start.is_some() {
+        crossings == 0
+    } else {
+        crossings == 1
+    }
+}
+
 /// Checks the planar embedding of a mesh whose faces are all positive (see the module notes).
 pub(crate) fn planar(m: &TriMesh<DVec2>) -> Result<(), InvariantViolation> {
     let verts: Vec<_> = m.vertex_ids().collect();
     let bad = verts.par_iter().find_map_first(|&v| {
-        let p = m.pos(v);
         let out = m.outgoing(v);
-        let boundary = m.is_boundary_vertex(v);
         // The first ring vertex of a boundary fan: its edge has a face on the left and none
         // on the right.
-        let reference = if boundary {
-            out.iter().find(|&&h| m.face_of(h).is_some() && m.face_of(m.twin(h)).is_none()).map(|&h| m.pos(m.dest(h)))
+        let reference = if m.is_boundary_vertex(v) {
+            match out.iter().find(|&&h| m.face_of(h).is_some() && m.face_of(m.twin(h)).is_none()) {
+                Some(&h) => Some(m.pos(m.dest(h))),
+                None => return Some(violation(Invariant::FoldedVertex, v)),
+            }
         } else {
             None
         };
-        let mut crossings = 0u32;
-        for &h in &out {
-            if m.face_of(h).is_none() {
-                continue;
-            }
-            let (b, c) = (m.pos(m.dest(h)), m.pos(m.dest(m.next(h))));
-            let (ub, uc) = match reference {
-                Some(r) => (upper_ref(p, r, b), upper_ref(p, r, c)),
-                None => (upper_x(p, b), upper_x(p, c)),
-            };
-            if !ub && uc {
-                crossings += 1;
-            }
-        }
-        let ok = if boundary { reference.is_some() && crossings == 0 } else { crossings == 1 };
-        (!ok).then(|| violation(Invariant::FoldedVertex, v))
+        let sectors =
+            out.iter().filter(|&&h| m.face_of(h).is_some()).map(|&h| (m.pos(m.dest(h)), m.pos(m.dest(m.next(h)))));
+        (!fan_winds_once(m.pos(v), sectors, reference)).then(|| violation(Invariant::FoldedVertex, v))
     });
     if let Some(e) = bad {
         return Err(e);
