@@ -105,3 +105,78 @@ fn an_isotropic_metric_meshes_like_a_size() {
     assert!(out.report.quality.q_mean >= 0.95, "q mean {}", out.report.quality.q_mean);
     assert!(out.report.quality.q_min >= 0.5, "q min {}", out.report.quality.q_min);
 }
+
+/// The shock metric of issue 22 on the square [-1, 1]^2: size `hmin + 0.3 |d|` (capped at 0.1)
+/// across the curve y = `amp` sin(`freq` pi x), 0.1 along it.
+fn shock(hmin: f64, amp: f64, freq: f64) -> impl Fn(DVec2) -> Metric2 + Clone + Send + Sync + 'static {
+    move |p: DVec2| {
+        let w = freq * std::f64::consts::PI;
+        let g = amp * w * (w * p.x).cos();
+        let d = (p.y - amp * (w * p.x).sin()).abs() / (1.0 + g * g).sqrt();
+        let hn = (hmin + 0.3 * d).min(0.1);
+        Metric2::from_sizes(DVec2::new(-g, 1.0), hn, 0.1)
+    }
+}
+
+/// 4 / sqrt(3) times the integral of sqrt(det M) over the square (midpoint rule, 400^2).
+fn estimate(m: &dyn Fn(DVec2) -> Metric2) -> f64 {
+    let n = 400;
+    let h = 2.0 / n as f64;
+    let mut s = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let x = m(DVec2::new(-1.0 + (i as f64 + 0.5) * h, -1.0 + (j as f64 + 0.5) * h));
+            s += (x.a * x.c - x.b * x.b).sqrt() * h * h;
+        }
+    }
+    4.0 / 3f64.sqrt() * s
+}
+
+/// Strong anisotropy does not fold (issue 22): ratios 4:1 to 20:1 and three curve shapes; the
+/// mesher's own validation (the embedding) runs on every output, and every edge count,
+/// unit-length share and area is checked here.
+#[test]
+fn shock_metrics_do_not_fold() {
+    shock_family(&[(0.005, 0.3, 1.0), (0.01, 0.3, 1.0), (0.025, 0.3, 1.0), (0.005, 0.5, 0.5)]);
+}
+
+/// The shorter wave (two periods across the square) still folds, in a topology operation the
+/// step control does not see; the embedding check turns it into an internal error.
+#[test]
+#[ignore = "folds in a topology operation (the step's fold guard does not cover collapses and flips yet)"]
+fn shock_metric_with_two_periods_does_not_fold() {
+    shock_family(&[(0.01, 0.2, 2.0)]);
+}
+
+fn shock_family(cases: &[(f64, f64, f64)]) {
+    use trussmesh::geometry::Rectangle;
+    eprintln!("| hmin | ratio | curve | triangles | estimate | count/estimate | unit edges | area | seconds |");
+    for &(hmin, amp, freq) in cases {
+        let m = shock(hmin, amp, freq);
+        let fixed = vec![[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]];
+        let opts = Options2::uniform(0.1, [-1.0, -1.0], [1.0, 1.0]).with_fixed(fixed).with_metric(m.clone());
+        let out = mesh_2d(&Rectangle::new([-1.0, -1.0], [1.0, 1.0]), &opts).expect("no fold: the output validates");
+        out.mesh.validate(Level::Geometry).expect("embedded");
+        let stats = MetricStats::of(&out.mesh, &m);
+        let est = estimate(&m);
+        let n = out.mesh.num_faces() as f64;
+        let area: f64 = out
+            .mesh
+            .face_ids()
+            .map(|f| {
+                let [a, b, c] = out.mesh.face_points(f);
+                0.5 * (b - a).perp_dot(c - a)
+            })
+            .sum();
+        eprintln!(
+            "| {hmin} | {:.0}:1 | {amp} sin({freq} pi x) | {n} | {est:.0} | {:.2} | {:.1}% | {area:.6} | {:.2} |",
+            0.1 / hmin,
+            n / est,
+            100.0 * stats.in_band,
+            out.report.seconds
+        );
+        assert!((area - 4.0).abs() < 1e-9, "area {area}");
+        assert!(stats.in_band >= 0.95, "{:.1}% unit edges", 100.0 * stats.in_band);
+        assert!(n <= 1.5 * est && n >= est / 1.5, "{n} triangles for an estimate of {est:.0}");
+    }
+}

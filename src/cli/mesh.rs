@@ -90,8 +90,9 @@ pub struct MeshArgs {
     /// Initial edge length (a constant expression such as 0.05/3).
     #[arg(long, value_name = "H", allow_hyphen_values = true, required_unless_present = "scene")]
     pub h0: Option<String>,
-    /// Bounding box: the minimum corner, then the maximum corner.
-    #[arg(long, value_name = "X0,Y0[,Z0],X1,Y1[,Z1]", allow_hyphen_values = true, required_unless_present = "scene")]
+    /// Bounding box: the minimum corner, then the maximum corner (required, but for a surface
+    /// file's inside, whose box is the file's own).
+    #[arg(long, value_name = "X0,Y0[,Z0],X1,Y1[,Z1]", allow_hyphen_values = true)]
     pub bbox: Option<String>,
     /// Fixed points, separated by ';'.
     #[arg(long, value_name = "x,y[,z];...", allow_hyphen_values = true)]

@@ -17,12 +17,28 @@ use std::time::Instant;
 const TTOL: f64 = 0.1;
 
 fn triangulate(domain: &dyn Implicit2, p: &[DVec2], geps: f64) -> Result<Vec<[usize; 3]>, Error> {
-    let pts: Vec<Point2<f64>> = p.iter().map(|q| Point2::new(q.x, q.y)).collect();
+    // The triangulation merges exactly equal points, which shifts its vertex indices past
+    // them: give it each position once (the first index holding it) and map back.
+    let mut order: Vec<usize> = (0..p.len()).collect();
+    // (+ 0.0 makes -0 and 0 one key.)
+    let key = |i: usize| (p[i].x + 0.0, p[i].y + 0.0);
+    order.sort_by(|&i, &j| key(i).0.total_cmp(&key(j).0).then(key(i).1.total_cmp(&key(j).1)).then(i.cmp(&j)));
+    let mut keep = vec![true; p.len()];
+    for w in order.windows(2) {
+        if p[w[0]] == p[w[1]] {
+            keep[w[1]] = false;
+        }
+    }
+    let uniq: Vec<usize> = (0..p.len()).filter(|&i| keep[i]).collect();
+    let pts: Vec<Point2<f64>> = uniq.iter().map(|&i| Point2::new(p[i].x, p[i].y)).collect();
     let t = DelaunayTriangulation::<Point2<f64>>::bulk_load_stable(pts)
         .map_err(|e| Error::internal(format!("spade: {e:?}")))?;
+    if t.num_vertices() != uniq.len() {
+        return Err(Error::internal("the classic triangulation dropped distinct points"));
+    }
     let mut tris = Vec::with_capacity(t.num_inner_faces());
     for f in t.inner_faces() {
-        let [a, b, c] = f.vertices().map(|v| v.fix().index());
+        let [a, b, c] = f.vertices().map(|v| uniq[v.fix().index()]);
         let cen = (p[a] + p[b] + p[c]) / 3.0;
         if eval_d(domain, cen)? < -geps {
             tris.push([a, b, c]);
@@ -167,6 +183,9 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
         if mesh.is_boundary_vertex(v) {
             mesh.set_tag(v, VertexTag::Boundary);
         }
+    }
+    if let Err(e) = mesh.validate(crate::topology::Level::Geometry) {
+        return Err(Error::broken("the finished mesh is invalid", e));
     }
     report.stopped(iter, stop);
     report.seconds = t0.elapsed().as_secs_f64();

@@ -11,7 +11,9 @@
 
 mod delaunay;
 mod disjoint_sets;
+mod embedding;
 mod incidence;
+mod intersect;
 mod tet_collapse;
 mod tet_delaunay;
 mod tet_delaunay_kernel;
@@ -25,6 +27,7 @@ mod trimesh;
 
 pub use delaunay::hilbert_order;
 pub use disjoint_sets::DisjointSets;
+pub(crate) use embedding::fan_winds_once;
 pub use incidence::{Incidence, VertexIndex};
 pub use tet_delaunay::{hilbert_order_3d, hilbert_sort_3d};
 pub use tet_edge_removal::Objective;

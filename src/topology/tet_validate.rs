@@ -13,7 +13,8 @@ impl TetMesh {
     /// Checks the invariants up to `level`: `Topology` (live keys, distinct vertices, mutual
     /// neighbours with matching face indices and shared face vertices, vertex pointers, each
     /// boundary edge on exactly two boundary faces), `Geometry` (plus exact positive
-    /// orientation) and `Delaunay` (plus exact in-sphere on interior faces of equal label).
+    /// orientation and the embedding: one winding of the tets around every interior edge, less
+    /// than one around boundary edges, a boundary surface that does not intersect itself) and `Delaunay` (plus exact in-sphere on interior faces of equal label).
     pub fn validate(&self, level: Level) -> Result<(), InvariantViolation> {
         use Invariant::*;
         for (t, tx) in self.tets.iter() {
@@ -79,6 +80,7 @@ impl TetMesh {
                     return fail(InvertedTet, t);
                 }
             }
+            super::embedding::tetrahedral(self)?;
         }
         if level >= Level::Delaunay {
             for (t, tx) in self.tets.iter() {

@@ -4,7 +4,7 @@
 use super::trimesh::{Face, Vertex, VertexTag};
 use super::trimesh::{MeshPoint, TriMesh};
 use crate::predicates::{incircle, Sign};
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 use slotmap::{Key, SecondaryMap};
 
 /// How deep `validate` looks.
@@ -12,7 +12,9 @@ use slotmap::{Key, SecondaryMap};
 pub enum Level {
     /// Combinatorics only.
     Topology,
-    /// Plus positive orientation of every face (exact).
+    /// Plus positive orientation of every face (exact) and the embedding: planar meshes wind
+    /// exactly once around every interior vertex and their boundary does not cross itself;
+    /// surfaces do not intersect themselves (see `embedding`).
     Geometry,
     /// Plus the exact in-circle test on every interior edge (planar meshes).
     Delaunay,
@@ -64,6 +66,19 @@ pub enum Invariant {
     NonManifoldBoundary,
     /// 3-D: a tet with non-positive exact orientation.
     InvertedTet,
+    /// Planar: the triangles around a vertex wind other than once around it (interior) or
+    /// turn by 2 pi or more (boundary): the mesh folds over itself there.
+    FoldedVertex,
+    /// Planar: two boundary edges that share no vertex meet.
+    BoundaryCrossing,
+    /// 3-D: the tets around an edge wind other than once around it (interior) or turn by
+    /// 2 pi or more (boundary).
+    FoldedEdge,
+    /// Surfaces and the boundary of tet meshes: two triangles meet other than in their shared
+    /// vertices or edge.
+    SelfIntersection,
+    /// Surfaces: a mesh that should be closed has a boundary.
+    OpenSurface,
 }
 
 /// The invariant that broke and the element where it broke.
@@ -192,6 +207,19 @@ impl<P: MeshPoint> TriMesh<P> {
                     return fail(InvertedFace, f);
                 }
             }
+            P::embedding(self)?;
+        }
+        Ok(())
+    }
+}
+
+impl TriMesh<DVec3> {
+    /// [`TriMesh::validate`] at `Geometry` plus closedness: a closed, oriented 2-manifold
+    /// without self-intersections (what the surface mesher promises for a closed level set).
+    pub fn validate_closed_surface(&self) -> Result<(), InvariantViolation> {
+        self.validate(Level::Geometry)?;
+        if let Some(h) = self.half_edge_ids().find(|&h| self.face_of(h).is_none()) {
+            return fail(Invariant::OpenSurface, h);
         }
         Ok(())
     }

@@ -79,6 +79,10 @@ pub trait MeshPoint: Copy + PartialEq + std::fmt::Debug + Send + Sync + 'static 
     /// runs when a flip is refused, to report [`super::Refusal::DuplicateEdge`] first, as
     /// before). Points in space have no such guarantee and keep the search.
     const NEEDS_DUPLICATE_EDGE_CHECK: bool = true;
+    /// The embedding check of a mesh whose faces all passed [`MeshPoint::orientation`]:
+    /// planar points, one winding around every vertex and an uncrossed boundary; points in
+    /// space, no self-intersection (see `embedding`).
+    fn embedding(m: &TriMesh<Self>) -> Result<(), super::InvariantViolation>;
 }
 
 impl MeshPoint for DVec2 {
@@ -102,6 +106,9 @@ impl MeshPoint for DVec2 {
     #[inline]
     fn orientation(a: Self, b: Self, c: Self) -> Sign {
         orient2d(a, b, c)
+    }
+    fn embedding(m: &TriMesh<Self>) -> Result<(), super::InvariantViolation> {
+        super::embedding::planar(m)
     }
 }
 
@@ -132,6 +139,9 @@ impl MeshPoint for DVec3 {
         } else {
             Sign::Positive
         }
+    }
+    fn embedding(m: &TriMesh<Self>) -> Result<(), super::InvariantViolation> {
+        super::embedding::surface(m)
     }
 }
 

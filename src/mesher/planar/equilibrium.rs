@@ -325,6 +325,9 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         // Step control: no triangle may invert; vertices of offending triangles step back.
         let tris = if full { None } else { Some(snap.triangles_of(&active, &mut tri_marks)) };
         snap.guard_inversions(&p, &mut newp, tris.as_deref());
+        if metric.is_some() {
+            snap.guard_folds(&p, &mut newp);
+        }
         // Boundary nodes count too once the step is taken: a node still travelling to d = 0
         // (a start cut from a previous mesh) is not settled.
         let boundary_move = active

@@ -347,6 +347,18 @@ pub(crate) fn run_moving(
     }
     if let Some(di) = &ctx.internal {
         internal::tag_interface(&mut mesh);
+        // No triangle may have vertices strictly on both sides of d_I (the sign of d_I at
+        // them): crossing edges get a vertex on the curve, and a crossing left is a bug.
+        // On the curve: within 1e-6 h0 (curve nodes are projected to 1e-9 h0; a bisection
+        // split next to such a node would only make a sliver).
+        let on = 1e-6 * opts.h0;
+        internal::seal(&mut mesh, di, on)?;
+        let left = internal::crossings(&mesh, di, on)?;
+        if left > 0 {
+            return Err(Error::internal(format!(
+                "{left} triangles cross the internal boundary (vertices strictly on both sides of d_I) after the repair"
+            )));
+        }
         ctx.report.internal_nodes_off = internal::nodes_off(&mesh, di, ctx.geps)?;
     }
     if ctx.internal.is_some() || start.is_some() {

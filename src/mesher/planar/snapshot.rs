@@ -155,6 +155,81 @@ impl Snapshot {
         });
     }
 
+    /// Whether the triangles of vertex i at positions q are positive and wind exactly once
+    /// around it (less than once from the first edge of an open fan): the embedding, locally.
+    fn winds_once(&self, q: &[DVec2], i: usize) -> bool {
+        let fan = self.vt.of(i);
+        let sector = |t: u32| {
+            let tr = self.tris[t as usize];
+            let k = tr.iter().position(|&x| x as usize == i).unwrap_or(0);
+            (tr[(k + 1) % 3], tr[(k + 2) % 3])
+        };
+        // Reverting a neighbour can invert a triangle that the step had kept positive.
+        if fan.iter().any(|&t| {
+            let (b, c) = sector(t);
+            orient2d(q[i], q[b as usize], q[c as usize]) != Sign::Positive
+        }) {
+            return false;
+        }
+        // An open fan starts at a b that is no sector's c.
+        let start = fan.iter().map(|&t| sector(t).0).find(|&b| !fan.iter().any(|&t| sector(t).1 == b));
+        let sectors = fan.iter().map(|&t| {
+            let (b, c) = sector(t);
+            (q[b as usize], q[c as usize])
+        });
+        crate::topology::fan_winds_once(q[i], sectors, start.map(|b| q[b as usize]))
+    }
+
+    /// Step control against folds (with a metric, whose steps are long across the thin
+    /// direction): a step can keep every triangle positive and still jump a node over its
+    /// neighbours' fans, so that the mesh winds twice around a vertex. Every vertex next to a
+    /// moved one is checked exactly; the nodes around a vertex that no longer winds once go
+    /// back to `old` (which is embedded), until none is left (at most 8 rounds, then every
+    /// moved node goes back).
+    pub(super) fn guard_folds(&self, old: &[DVec2], newp: &mut [DVec2]) -> usize {
+        let mut reverted = 0;
+        for round in 0..9 {
+            let moved: Vec<usize> = (0..old.len()).into_par_iter().filter(|&i| newp[i] != old[i]).collect();
+            if moved.is_empty() {
+                break;
+            }
+            if round == 8 {
+                for i in moved {
+                    newp[i] = old[i];
+                    reverted += 1;
+                }
+                break;
+            }
+            let mut check: Vec<u32> = Vec::with_capacity(4 * moved.len());
+            for &i in &moved {
+                check.push(i as u32);
+                check.extend_from_slice(&self.adj[self.adj_start[i] as usize..self.adj_start[i + 1] as usize]);
+            }
+            check.sort_unstable();
+            check.dedup();
+            let q: &[DVec2] = newp;
+            let bad: Vec<u32> = check.par_iter().copied().filter(|&i| !self.winds_once(q, i as usize)).collect();
+            if bad.is_empty() {
+                break;
+            }
+            for &i in &bad {
+                let i = i as usize;
+                for k in self.adj_start[i] as usize..self.adj_start[i + 1] as usize {
+                    let j = self.adj[k] as usize;
+                    if newp[j] != old[j] {
+                        newp[j] = old[j];
+                        reverted += 1;
+                    }
+                }
+                if newp[i] != old[i] {
+                    newp[i] = old[i];
+                    reverted += 1;
+                }
+            }
+        }
+        reverted
+    }
+
     /// The given nodes and their neighbours, each once, in order of first appearance.
     pub(super) fn with_neighbours(&self, nodes: &[u32], marks: &mut Marks) -> Vec<u32> {
         marks.reset(self.ids.len());

@@ -158,6 +158,10 @@ pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<Surfac
     for (&v, &p) in ids.iter().zip(&finals) {
         m.set_pos_unchecked(v, p);
     }
+    // The promise of a level-set surface: closed, oriented, manifold, not self-intersecting.
+    if let Err(e) = m.validate_closed_surface() {
+        return Err(Error::broken("the finished surface is invalid", e));
+    }
     st.kept_iteration = kept;
     report.stages = Some(st);
     report.ops = counts;
