@@ -108,6 +108,16 @@ pub struct Report<Q> {
     pub metric: Option<super::metric::MetricStats>,
     /// For surfaces: the stages of the run.
     pub stages: Option<SurfaceStages>,
+    /// How the domain was taken (2-D, 3-D): `Some` when the mesher decided between a signed
+    /// distance and a level set by sampling |grad d| over the box (the geometry declared
+    /// neither), `None` when the geometry declared it.
+    pub gradient_survey: Option<crate::geometry::GradientSurvey>,
+    /// True when the domain was meshed as a level set (first-order projection, d / |grad d|
+    /// as the distance), declared or decided.
+    pub level_set: bool,
+    /// What the run changed or doubts about its input (a part of the domain below the
+    /// resolution dropped, ...), one sentence each; printed as warnings.
+    pub notes: Vec<String>,
 }
 
 impl<Q> Report<Q> {
@@ -126,6 +136,9 @@ impl<Q> Report<Q> {
             feature_points: self.feature_points,
             metric: self.metric,
             stages: self.stages,
+            gradient_survey: self.gradient_survey,
+            level_set: self.level_set,
+            notes: self.notes,
         }
     }
 
@@ -138,6 +151,16 @@ impl<Q> Report<Q> {
 
     /// The warnings of the run, one line each (empty for a good run).
     pub(crate) fn warnings(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let (Some(s), true) = (&self.gradient_survey, self.level_set) {
+            write!(
+                f,
+                "\nthe domain is a level set, not a signed distance (|grad d| {:.3} to {:.3} near d = 0): projected by gradient steps",
+                s.grad_min, s.grad_max
+            )?;
+        }
+        for n in &self.notes {
+            write!(f, "\nwarning: {n}")?;
+        }
         if self.boundary_nodes_off > 0 {
             write!(
                 f,

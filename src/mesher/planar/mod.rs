@@ -28,8 +28,8 @@ use start::*;
 
 pub(crate) use carve::{drop_small_fans, pinched_vertices};
 
-use crate::geometry::project::{project2, ProjectError, Projection};
-use crate::geometry::Implicit2;
+use crate::geometry::project::{project2, Projection};
+use crate::geometry::{decide2, Declared, Implicit2};
 use crate::mesher::input::{eval_d, eval_h_floor, survey};
 use crate::mesher::internal::{self, Internal};
 use crate::mesher::metric::{self, eval_metric, metric_triangle_q, Metric2, MetricFn2};
@@ -216,10 +216,10 @@ impl Ctx<'_> {
 fn project_point(domain: &dyn Implicit2, projection: Projection, h0: f64, p: DVec2) -> Result<Option<DVec2>, Error> {
     match project2(domain, p, projection, 1e-9 * h0, 20) {
         Ok(q) => Ok(Some(q)),
-        Err(ProjectError::NonFinite { value }) => {
-            Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, 0.0] })
-        }
-        Err(_) => Ok(None),
+        Err(e) => match truss::domain::projection_non_finite(&e, truss::domain::Function::Domain) {
+            Some(err) => Err(err),
+            None => Ok(None),
+        },
     }
 }
 
@@ -255,6 +255,9 @@ pub(crate) fn run_moving(
 ) -> Result<MeshOutput2, Error> {
     let t0 = Instant::now();
     let survey = survey(domain, opts)?;
+    let (distance, gradient_survey) = decide2(domain, opts.bbox[0], opts.bbox[1]);
+    let decided = Declared { inner: domain, distance };
+    let domain: &dyn Implicit2 = &decided;
     let projection = match opts.projection {
         Projection::Auto if domain.is_distance() => Projection::Exact,
         Projection::Auto => Projection::FirstOrder,
@@ -282,7 +285,7 @@ pub(crate) fn run_moving(
         projection,
         geps: 1e-3 * opts.h0,
         h_floor: survey.h_floor,
-        report: Report { feature_points: corners.len(), ..Report::default() },
+        report: Report { feature_points: corners.len(), gradient_survey, level_set: !distance, ..Report::default() },
         left: 0,
         joined: 0,
         from_previous: start.is_some(),

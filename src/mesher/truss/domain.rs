@@ -2,6 +2,7 @@
 //! that a bad value is a typed error naming the function and the point, found before anything
 //! large is allocated.
 
+use crate::geometry::project::{NonFiniteIn, ProjectError};
 use crate::Error;
 use glam::{DVec2, DVec3};
 
@@ -42,6 +43,30 @@ pub(crate) fn checked_d<P: DomainPoint>(d: f64, p: P) -> Result<f64, Error> {
     } else {
         Err(Error::NonFinite { what: "the distance function", value: d, at: p.xyz() })
     }
+}
+
+/// The error for a projection that met a non-finite number, naming what was not finite and
+/// where it was evaluated (a derived gradient is not called the function's value); `None` for
+/// the other projection failures. `function` is "the distance function" or the like.
+pub(crate) fn projection_non_finite(e: &ProjectError, function: Function) -> Option<Error> {
+    let ProjectError::NonFinite { value, kind, at } = *e else { return None };
+    let what = match (kind, function) {
+        (NonFiniteIn::Value, Function::Domain) => "the distance function, evaluated where a boundary projection led,",
+        (NonFiniteIn::Gradient, Function::Domain) => "the gradient of the distance function",
+        (NonFiniteIn::Value, Function::Internal) => "the internal-boundary function, evaluated where a projection led,",
+        (NonFiniteIn::Gradient, Function::Internal) => "the gradient of the internal-boundary function",
+        (NonFiniteIn::Point, _) => "a node position being projected onto the boundary",
+    };
+    Some(Error::NonFinite { what, value, at })
+}
+
+/// Which function a projection worked on, for [`projection_non_finite`].
+#[derive(Clone, Copy)]
+pub(crate) enum Function {
+    /// The domain's d.
+    Domain,
+    /// An internal boundary's d_I.
+    Internal,
 }
 
 /// The relative size at `p` (1 without a size function), raised to `floor` where it is not
