@@ -7,6 +7,7 @@
 
 mod boundary;
 mod carve;
+mod coverage;
 mod density;
 mod equilibrium;
 mod features;
@@ -356,6 +357,10 @@ pub(crate) fn run_moving(
     }
     if let Err(e) = mesh.validate(Level::Geometry) {
         return Err(Error::broken("the finished mesh is invalid", e));
+    }
+    if start.is_none() && freeze.is_none() {
+        let notes = coverage::uncovered_notes(&ctx, &mesh)?;
+        ctx.report.notes.extend(notes);
     }
     let mut report = ctx.report;
     report.seconds = t0.elapsed().as_secs_f64();
