@@ -3,6 +3,12 @@
 
 use std::fmt;
 
+/// The quality floor of a triangle mesh (2-D and surfaces): a smallest q below it is a warning
+/// of the report.
+pub const Q_FLOOR: f64 = 0.3;
+/// The quality floor of a tetrahedral mesh, in degrees of the smallest dihedral angle.
+pub const DIHEDRAL_FLOOR: f64 = 10.0;
+
 /// Why the force loop of a run stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[non_exhaustive]
