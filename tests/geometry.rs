@@ -174,7 +174,7 @@ fn projections_in_3d() {
 fn bad_functions_give_errors_not_panics() {
     let nan = |_: DVec2| f64::NAN;
     let r = project2(&nan, DVec2::ZERO, Projection::Auto, TOL, 10);
-    assert!(matches!(r, Err(ProjectError::NonFinite { value }) if value.is_nan()));
+    assert!(matches!(r, Err(ProjectError::NonFinite { value, .. }) if value.is_nan()));
     let flat = |_: DVec2| 2.0;
     for m in [Projection::Auto, Projection::Exact, Projection::FirstOrder, Projection::SecondOrder, Projection::Newton]
     {

@@ -289,8 +289,8 @@ impl Implicit2 for Domain2 {
     fn gradient(&self, p: DVec2) -> DVec2 {
         self.field.gradient(p)
     }
-    fn is_distance(&self) -> bool {
-        self.distance
+    fn declared_distance(&self) -> Option<bool> {
+        (!self.distance).then_some(false)
     }
 }
 
@@ -321,8 +321,8 @@ impl Implicit3 for Domain3 {
         }
         self.field.value_and_gradient(p)
     }
-    fn is_distance(&self) -> bool {
-        self.distance
+    fn declared_distance(&self) -> Option<bool> {
+        (!self.distance).then_some(false)
     }
 }
 

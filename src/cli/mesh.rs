@@ -14,6 +14,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 use trussmesh::expr::{Expr, ExprImplicit2, ExprImplicit3};
 use trussmesh::geometry::project::Projection;
+use trussmesh::geometry::{Declared, Implicit2, Implicit3};
 use trussmesh::io::{CellType, MeshData};
 use trussmesh::mesher::{estimated_elements, mesh_2d, mesh_3d, Metric2, Options2, Options3, Report, Survey};
 
@@ -516,12 +517,14 @@ impl Job {
     }
 
     /// The domain as the meshers see it.
+    /// The domain, declared neither a distance nor a level set: the mesher decides from its
+    /// gradient unless `--implicit` declares it a level set.
     fn geom2(&self) -> ExprImplicit2 {
-        ExprImplicit2 { expr: self.domain.clone(), distance: !self.implicit }
+        ExprImplicit2 { expr: self.domain.clone(), distance: false }
     }
 
     fn geom3(&self) -> ExprImplicit3 {
-        ExprImplicit3 { expr: self.domain.clone(), distance: !self.implicit }
+        ExprImplicit3 { expr: self.domain.clone(), distance: false }
     }
 
     /// The estimated element count of the mesher's survey (bad input fails here, before any
@@ -723,7 +726,9 @@ fn planar_data(out: &trussmesh::mesher::MeshOutput2) -> MeshData {
 /// 2-D meshing: triangles.
 fn mesh2(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
     let geom = job.geom2();
-    let out = with_progress_bar(quiet, "iterations", |pb| mesh_2d(&geom, &job.options2(pb)))?;
+    let level = Declared { inner: &geom as &dyn Implicit2, distance: false };
+    let domain: &dyn Implicit2 = if job.implicit { &level } else { &geom };
+    let out = with_progress_bar(quiet, "iterations", |pb| mesh_2d(domain, &job.options2(pb)))?;
     let mesh = planar_data(&out);
     let node_kind = kinds::planar(&out.mesh, &job.fix, job.h0);
     let summary = out.report.to_string();
@@ -733,7 +738,9 @@ fn mesh2(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
 /// 3-D meshing: tetrahedra, written as 3-D cells (.vtu, .msh, .mesh, .json).
 fn mesh3(job: &Job, quiet: bool) -> Result<Meshed, Failure> {
     let geom = job.geom3();
-    let out = with_progress_bar(quiet, "iterations", |pb| mesh_3d(&geom, &job.options3(pb)))?;
+    let level = Declared { inner: &geom as &dyn Implicit3, distance: false };
+    let domain: &dyn Implicit3 = if job.implicit { &level } else { &geom };
+    let out = with_progress_bar(quiet, "iterations", |pb| mesh_3d(domain, &job.options3(pb)))?;
     let trussmesh::topology::MeshArrays { points, cells: tets, labels, .. } = out.mesh.to_arrays();
     let subdomain =
         if labels.iter().any(|&l| l != 0) { Some(labels.iter().map(|&l| l as i32).collect()) } else { None };

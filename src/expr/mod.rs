@@ -176,8 +176,13 @@ impl Implicit2 for ExprImplicit2 {
         let (_, g) = self.expr.eval_grad(p.x, p.y, 0.0);
         DVec2::new(g[0], g[1])
     }
+    /// The caller's claim (false for [`Self::new`]).
     fn is_distance(&self) -> bool {
         self.distance
+    }
+    /// A claimed distance is declared; otherwise the meshers decide from the gradient.
+    fn declared_distance(&self) -> Option<bool> {
+        self.distance.then_some(true)
     }
 }
 
@@ -210,8 +215,13 @@ impl Implicit3 for ExprImplicit3 {
         let (v, g) = self.expr.eval_grad(p.x, p.y, p.z);
         (v, DVec3::from_array(g))
     }
+    /// The caller's claim (false for [`Self::new`]).
     fn is_distance(&self) -> bool {
         self.distance
+    }
+    /// A claimed distance is declared; otherwise the meshers decide from the gradient.
+    fn declared_distance(&self) -> Option<bool> {
+        self.distance.then_some(true)
     }
 }
 

@@ -100,8 +100,8 @@ macro_rules! csg_impl {
                     self.b.hessian(p)
                 }
             }
-            fn is_distance(&self) -> bool {
-                self.a.is_distance() && self.b.is_distance()
+            fn declared_distance(&self) -> Option<bool> {
+                both_distances(self.a.declared_distance(), self.b.declared_distance())
             }
         }
 
@@ -123,8 +123,8 @@ macro_rules! csg_impl {
                     self.b.hessian(p).map(|h| -h)
                 }
             }
-            fn is_distance(&self) -> bool {
-                self.a.is_distance() && self.b.is_distance()
+            fn declared_distance(&self) -> Option<bool> {
+                both_distances(self.a.declared_distance(), self.b.declared_distance())
             }
         }
 
@@ -146,8 +146,8 @@ macro_rules! csg_impl {
                     self.b.hessian(p)
                 }
             }
-            fn is_distance(&self) -> bool {
-                self.a.is_distance() && self.b.is_distance()
+            fn declared_distance(&self) -> Option<bool> {
+                both_distances(self.a.declared_distance(), self.b.declared_distance())
             }
         }
 
@@ -186,11 +186,21 @@ macro_rules! csg_impl {
                     self.b.hessian(p)
                 }
             }
-            fn is_distance(&self) -> bool {
-                self.a.is_distance() && self.b.is_distance()
+            fn declared_distance(&self) -> Option<bool> {
+                both_distances(self.a.declared_distance(), self.b.declared_distance())
             }
         }
     };
+}
+
+/// What a set operation of two geometries declares: a distance when both are, a level set when
+/// either is, undeclared otherwise.
+fn both_distances(a: Option<bool>, b: Option<bool>) -> Option<bool> {
+    match (a, b) {
+        (Some(false), _) | (_, Some(false)) => Some(false),
+        (Some(true), Some(true)) => Some(true),
+        _ => None,
+    }
 }
 
 trait Outer: Sized {
@@ -248,8 +258,8 @@ impl Implicit2 for Shape2 {
     fn hessian(&self, p: DVec2) -> Option<DMat2> {
         self.0.hessian(p)
     }
-    fn is_distance(&self) -> bool {
-        self.0.is_distance()
+    fn declared_distance(&self) -> Option<bool> {
+        self.0.declared_distance()
     }
 }
 
@@ -263,8 +273,8 @@ impl Implicit3 for Shape3 {
     fn hessian(&self, p: DVec3) -> Option<DMat3> {
         self.0.hessian(p)
     }
-    fn is_distance(&self) -> bool {
-        self.0.is_distance()
+    fn declared_distance(&self) -> Option<bool> {
+        self.0.declared_distance()
     }
 }
 

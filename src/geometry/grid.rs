@@ -130,8 +130,8 @@ impl Implicit2 for Grid2 {
         let c = (v11 - v10 - v01 + v00) / (self.spacing * self.spacing);
         Some(DMat2::from_cols(DVec2::new(0.0, c), DVec2::new(c, 0.0)))
     }
-    fn is_distance(&self) -> bool {
-        self.distance
+    fn declared_distance(&self) -> Option<bool> {
+        Some(self.distance)
     }
 }
 
@@ -278,8 +278,8 @@ impl Implicit3 for Grid3 {
                 * (1.0 / h2),
         )
     }
-    fn is_distance(&self) -> bool {
-        self.distance
+    fn declared_distance(&self) -> Option<bool> {
+        Some(self.distance)
     }
 }
 

@@ -19,8 +19,8 @@ impl<F: Fn(DVec2) -> f64 + Sync + Send> Implicit2 for LevelSet<F> {
     fn value(&self, p: DVec2) -> f64 {
         (self.0)(p)
     }
-    fn is_distance(&self) -> bool {
-        false
+    fn declared_distance(&self) -> Option<bool> {
+        Some(false)
     }
 }
 
@@ -28,7 +28,7 @@ impl<F: Fn(DVec3) -> f64 + Sync + Send> Implicit3 for LevelSet<F> {
     fn value(&self, p: DVec3) -> f64 {
         (self.0)(p)
     }
-    fn is_distance(&self) -> bool {
-        false
+    fn declared_distance(&self) -> Option<bool> {
+        Some(false)
     }
 }

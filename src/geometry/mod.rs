@@ -5,6 +5,7 @@
 use glam::{DMat2, DMat3, DVec2, DVec3};
 
 mod csg;
+mod decide;
 mod grid;
 mod level_set;
 pub mod levelset;
@@ -19,11 +20,13 @@ pub mod trisurf;
 pub use csg::{
     difference, exact_corners, intersection, union, Difference, ExactCorners, Intersection, Shape2, Shape3, Union,
 };
+pub(crate) use decide::{decide2, decide3};
+pub use decide::{survey_gradient2, survey_gradient3, Declared, GradientSurvey};
 pub use grid::{Grid2, Grid3};
 pub use level_set::LevelSet;
 pub use primitives2::{Circle, Ellipse, Polygon, Rectangle};
 pub use primitives3::{Ball, Box3, Cylinder};
-pub use project::{newton_distance2, newton_distance3, project2, project3, ProjectError, Projection};
+pub use project::{newton_distance2, newton_distance3, project2, project3, NonFiniteIn, ProjectError, Projection};
 pub use transform::{Implicit2Ext, Implicit3Ext, Rotate, Scale, Translate};
 pub use trisurf::TriSurface;
 
@@ -45,9 +48,18 @@ pub trait Implicit2: Sync + Send {
     fn hessian(&self, _p: DVec2) -> Option<DMat2> {
         None
     }
-    /// True when `value` is a signed distance (|grad d| = 1), so that p - d grad d projects exactly.
+    /// True when `value` is a signed distance (|grad d| = 1), so that p - d grad d projects exactly:
+    /// the declaration when there is one, else true (the seed's convention). The meshers do not
+    /// take this default on trust: for an undeclared geometry they sample |grad d| over the box
+    /// and decide ([`survey_gradient2`]).
     fn is_distance(&self) -> bool {
-        true
+        self.declared_distance().unwrap_or(true)
+    }
+    /// `Some(true)` when the geometry knows it is a signed distance (primitives, CSG of them),
+    /// `Some(false)` when it knows it is not ([`LevelSet`], [`Ellipse`]), `None` (closures and
+    /// expressions) when it does not know: the meshers then decide from sampled gradients.
+    fn declared_distance(&self) -> Option<bool> {
+        None
     }
 }
 
@@ -75,9 +87,13 @@ pub trait Implicit3: Sync + Send {
     fn hessian(&self, _p: DVec3) -> Option<DMat3> {
         None
     }
-    /// True when `value` is a signed distance.
+    /// True when `value` is a signed distance: see [`Implicit2::is_distance`].
     fn is_distance(&self) -> bool {
-        true
+        self.declared_distance().unwrap_or(true)
+    }
+    /// What the geometry declares: see [`Implicit2::declared_distance`].
+    fn declared_distance(&self) -> Option<bool> {
+        None
     }
 }
 

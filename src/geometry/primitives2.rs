@@ -32,6 +32,9 @@ impl Circle {
 }
 
 impl Implicit2 for Circle {
+    fn declared_distance(&self) -> Option<bool> {
+        Some(true)
+    }
     fn value(&self, p: DVec2) -> f64 {
         (p - self.center).length() - self.radius
     }
@@ -90,6 +93,9 @@ impl Rectangle {
 }
 
 impl Implicit2 for Rectangle {
+    fn declared_distance(&self) -> Option<bool> {
+        Some(true)
+    }
     fn value(&self, p: DVec2) -> f64 {
         let (q, _) = self.slabs(p);
         if self.cheap {
@@ -173,6 +179,9 @@ impl Polygon {
 }
 
 impl Implicit2 for Polygon {
+    fn declared_distance(&self) -> Option<bool> {
+        Some(true)
+    }
     fn value(&self, p: DVec2) -> f64 {
         match self.nearest(p) {
             None => f64::INFINITY,
@@ -233,8 +242,8 @@ impl Implicit2 for Ellipse {
     fn hessian(&self, _p: DVec2) -> Option<DMat2> {
         Some(DMat2::from_diagonal(DVec2::new(2.0 / (self.a * self.a), 2.0 / (self.b * self.b))))
     }
-    fn is_distance(&self) -> bool {
-        false
+    fn declared_distance(&self) -> Option<bool> {
+        Some(false)
     }
 }
 

@@ -36,6 +36,9 @@ impl Ball {
 }
 
 impl Implicit3 for Ball {
+    fn declared_distance(&self) -> Option<bool> {
+        Some(true)
+    }
     fn value(&self, p: DVec3) -> f64 {
         (p - self.center).length() - self.radius
     }
@@ -100,6 +103,9 @@ fn max_axis(q: DVec3, s: DVec3) -> DVec3 {
 }
 
 impl Implicit3 for Box3 {
+    fn declared_distance(&self) -> Option<bool> {
+        Some(true)
+    }
     fn value(&self, p: DVec3) -> f64 {
         let (q, _) = self.slabs(p);
         if self.cheap {
@@ -145,6 +151,9 @@ impl Cylinder {
 }
 
 impl Implicit3 for Cylinder {
+    fn declared_distance(&self) -> Option<bool> {
+        Some(true)
+    }
     fn value(&self, p: DVec3) -> f64 {
         let (d1, d2, d3, _) = self.parts(p);
         if d1 > 0.0 && d2 > 0.0 {

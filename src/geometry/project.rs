@@ -35,10 +35,15 @@ pub enum Projection {
 #[derive(Clone, Copy, Debug, PartialEq, Error)]
 pub enum ProjectError {
     /// The function, its gradient or the input point was NaN or infinite.
-    #[error("non-finite value {value} from the geometry or the input point")]
+    #[error("non-finite value {value} in {kind} at {at:?}")]
     NonFinite {
         /// The offending number.
         value: f64,
+        /// Which number it was.
+        kind: NonFiniteIn,
+        /// Where: the point the function was evaluated at (a point the projection reached,
+        /// not necessarily the one it started from), z = 0 in the plane.
+        at: [f64; 3],
     },
     /// The gradient vanished off the zero set, so there is no direction to move in.
     #[error("zero gradient away from the boundary: no direction to project along")]
@@ -49,6 +54,31 @@ pub enum ProjectError {
         /// The last |phi| / |grad phi| (|d| for exact projections).
         residual: f64,
     },
+}
+
+/// Which number of a projection was not finite.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NonFiniteIn {
+    /// The point to project.
+    Point,
+    /// The function's value.
+    Value,
+    /// The function's gradient (a derived quantity: the function itself may be finite there).
+    Gradient,
+}
+
+impl std::fmt::Display for NonFiniteIn {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            NonFiniteIn::Point => "the input point",
+            NonFiniteIn::Value => "the function's value",
+            NonFiniteIn::Gradient => "the function's gradient",
+        })
+    }
+}
+
+fn at3<const N: usize>(x: &[f64; N]) -> [f64; 3] {
+    std::array::from_fn(|i| x.get(i).copied().unwrap_or(0.0))
 }
 
 /// Projects `p` onto the zero set of `g`. `tol` bounds the final residual (see [`Projection`]);
@@ -155,11 +185,11 @@ fn first_non_finite(xs: &[f64]) -> Option<f64> {
 fn eval<const N: usize>(g: &impl Geom<N>, x: Vector<N>) -> Result<(f64, Vector<N>), ProjectError> {
     let phi = g.value(x);
     if !phi.is_finite() {
-        return Err(ProjectError::NonFinite { value: phi });
+        return Err(ProjectError::NonFinite { value: phi, kind: NonFiniteIn::Value, at: at3(&x) });
     }
     let grad = g.gradient(x);
     if let Some(value) = first_non_finite(&grad) {
-        return Err(ProjectError::NonFinite { value });
+        return Err(ProjectError::NonFinite { value, kind: NonFiniteIn::Gradient, at: at3(&x) });
     }
     Ok((phi, grad))
 }
@@ -172,7 +202,7 @@ fn project<const N: usize>(
     max_iter: usize,
 ) -> Result<Vector<N>, ProjectError> {
     if let Some(value) = first_non_finite(&p) {
-        return Err(ProjectError::NonFinite { value });
+        return Err(ProjectError::NonFinite { value, kind: NonFiniteIn::Point, at: at3(&p) });
     }
     let method = match method {
         Projection::Auto if g.is_distance() => Projection::Exact,
@@ -184,6 +214,8 @@ fn project<const N: usize>(
     }
     let mut x = p;
     let mut residual = f64::INFINITY;
+    // The previous first-order step, for the multiplicity estimate below.
+    let mut previous: Option<Vector<N>> = None;
     for it in 0..=max_iter {
         let (phi, grad) = eval(g, x)?;
         if phi == 0.0 {
@@ -205,11 +237,42 @@ fn project<const N: usize>(
         let step = match method {
             Projection::Exact => axpy([0.0; N], -phi / gl, grad),
             Projection::SecondOrder => second_order_step(g, x, phi, grad).unwrap_or(first),
-            _ => first,
+            _ => {
+                let m = previous.map_or(1.0, |s| multiplicity(s, first));
+                previous = Some(first);
+                let long = axpy([0.0; N], m, first);
+                // The longer step only when it stays on this side of the zero set (it does not
+                // jump over the boundary to another branch).
+                let same_side = |v: f64| v.is_finite() && (v == 0.0 || (v < 0.0) == (phi < 0.0));
+                if m > 1.0 && same_side(g.value(axpy(x, 1.0, long))) {
+                    previous = None;
+                    long
+                } else {
+                    first
+                }
+            }
         };
         x = axpy(x, 1.0, step);
     }
     Err(ProjectError::NoConvergence { residual })
+}
+
+/// The root multiplicity that two successive first-order steps `s0`, `s1` along one line
+/// suggest: for phi = c t^m the steps shrink by r = 1 - 1/m, so m = 1 / (1 - r); 1 (no
+/// acceleration) unless the steps point the same way and shrink linearly (0.2 < r < 0.95), as
+/// they do towards a multiple root (a power of a distance, d^3) or far out on a steep level set
+/// (x^6 + y^6 - 1), where plain first-order steps crawl. At most 10.
+fn multiplicity<const N: usize>(s0: Vector<N>, s1: Vector<N>) -> f64 {
+    let (l0, l1) = (norm(s0), norm(s1));
+    if !(l0 > 0.0 && l1 > 0.0) || dot(s0, s1) < 0.99 * l0 * l1 {
+        return 1.0;
+    }
+    let r = l1 / l0;
+    if r > 0.2 && r < 0.95 {
+        (1.0 / (1.0 - r)).min(10.0)
+    } else {
+        1.0
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -575,8 +638,8 @@ mod tests {
         fn hessian(&self, p: DVec2) -> Option<DMat2> {
             Some(DMat2::from_cols(DVec2::new(TAU * TAU * (TAU * p.x).sin(), 0.0), DVec2::ZERO))
         }
-        fn is_distance(&self) -> bool {
-            false
+        fn declared_distance(&self) -> Option<bool> {
+            Some(false)
         }
     }
 

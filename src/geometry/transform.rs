@@ -30,8 +30,8 @@ impl<G: Implicit2> Implicit2 for Translate<G, DVec2> {
     fn hessian(&self, p: DVec2) -> Option<DMat2> {
         self.inner.hessian(p - self.offset)
     }
-    fn is_distance(&self) -> bool {
-        self.inner.is_distance()
+    fn declared_distance(&self) -> Option<bool> {
+        self.inner.declared_distance()
     }
 }
 
@@ -45,8 +45,8 @@ impl<G: Implicit3> Implicit3 for Translate<G, DVec3> {
     fn hessian(&self, p: DVec3) -> Option<DMat3> {
         self.inner.hessian(p - self.offset)
     }
-    fn is_distance(&self) -> bool {
-        self.inner.is_distance()
+    fn declared_distance(&self) -> Option<bool> {
+        self.inner.declared_distance()
     }
 }
 
@@ -91,8 +91,8 @@ impl<G: Implicit2> Implicit2 for Rotate<G, DMat2> {
         let r = self.rotation;
         Some(r * self.inner.hessian(r.transpose() * p)? * r.transpose())
     }
-    fn is_distance(&self) -> bool {
-        self.inner.is_distance()
+    fn declared_distance(&self) -> Option<bool> {
+        self.inner.declared_distance()
     }
 }
 
@@ -107,8 +107,8 @@ impl<G: Implicit3> Implicit3 for Rotate<G, DMat3> {
         let r = self.rotation;
         Some(r * self.inner.hessian(r.transpose() * p)? * r.transpose())
     }
-    fn is_distance(&self) -> bool {
-        self.inner.is_distance()
+    fn declared_distance(&self) -> Option<bool> {
+        self.inner.declared_distance()
     }
 }
 
@@ -139,8 +139,8 @@ impl<G: Implicit2> Implicit2 for Scale<G> {
     fn hessian(&self, p: DVec2) -> Option<DMat2> {
         Some(self.inner.hessian(p / self.factor)? * (1.0 / self.factor))
     }
-    fn is_distance(&self) -> bool {
-        self.inner.is_distance()
+    fn declared_distance(&self) -> Option<bool> {
+        self.inner.declared_distance()
     }
 }
 
@@ -154,8 +154,8 @@ impl<G: Implicit3> Implicit3 for Scale<G> {
     fn hessian(&self, p: DVec3) -> Option<DMat3> {
         Some(self.inner.hessian(p / self.factor)? * (1.0 / self.factor))
     }
-    fn is_distance(&self) -> bool {
-        self.inner.is_distance()
+    fn declared_distance(&self) -> Option<bool> {
+        self.inner.declared_distance()
     }
 }
 

@@ -27,6 +27,9 @@ impl BoundaryDistance {
 }
 
 impl Implicit2 for BoundaryDistance {
+    fn declared_distance(&self) -> Option<bool> {
+        Some(true)
+    }
     fn value(&self, p: DVec2) -> f64 {
         let mut best = f64::INFINITY;
         let mut inside = false;

@@ -51,6 +51,9 @@ fn triangulate(domain: &dyn Implicit2, p: &[DVec2], geps: f64) -> Result<Vec<[us
 pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, Error> {
     let t0 = Instant::now();
     let floor = survey(domain, opts)?.h_floor;
+    let (distance, gradient_survey) = crate::geometry::decide2(domain, opts.bbox[0], opts.bbox[1]);
+    let decided = crate::geometry::Declared { inner: domain, distance };
+    let domain: &dyn Implicit2 = &decided;
     let h0 = opts.h0;
     let geps = 1e-3 * h0;
     let [lo, hi] = opts.bbox;
@@ -89,7 +92,7 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
     };
     let mut pold = vec![DVec2::splat(f64::INFINITY); p.len()];
     let mut bars: Vec<[usize; 2]> = Vec::new();
-    let mut report = Report::default();
+    let mut report = Report { gradient_survey, level_set: !distance, ..Report::default() };
     let mut iter = 0;
     let mut stop = StopReason::IterationCap { max_iter: opts.max_iter };
     while iter < opts.max_iter {

@@ -342,8 +342,8 @@ impl Implicit2 for Scaled<'_> {
     fn gradient(&self, p: DVec2) -> DVec2 {
         self.g.gradient(p / self.s)
     }
-    fn is_distance(&self) -> bool {
-        true
+    fn declared_distance(&self) -> Option<bool> {
+        Some(true)
     }
 }
 

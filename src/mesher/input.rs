@@ -3,7 +3,7 @@
 
 use super::Options2;
 use crate::geometry::Implicit2;
-use crate::mesher::truss::domain::{check_input, checked_d, checked_h};
+use crate::mesher::truss::domain::{check_box_boundary, check_input, checked_d, checked_h};
 use crate::Error;
 use glam::DVec2;
 
@@ -62,6 +62,9 @@ pub(crate) fn survey(domain: &dyn Implicit2, opts: &Options2) -> Result<DomainSu
         for i in 0..nx {
             let p = lo + DVec2::new(i as f64 * dx, j as f64 * dy);
             let d = eval_d(domain, p)?;
+            if d < 0.0 && (i == 0 || j == 0 || i == nx - 1 || j == ny - 1) {
+                check_box_boundary(d, domain.gradient(p).length(), p, h0)?;
+            }
             if d < 0.0 {
                 inside += 1;
                 if let Some(f) = &opts.metric {

@@ -4,7 +4,8 @@
 //! tagged `InternalBoundary`; the engine never flips such edges, and the mesher keeps those
 //! vertices on d_I = 0.
 
-use crate::geometry::project::{project2, ProjectError, Projection};
+use crate::geometry::project::{project2, Projection};
+use crate::mesher::truss::domain::{projection_non_finite, Function};
 use crate::geometry::Implicit2;
 use crate::topology::{FaceId, TriMesh, VertexId, VertexTag};
 use crate::Error;
@@ -58,10 +59,10 @@ impl Internal<'_> {
     pub fn project(&self, p: DVec2) -> Result<Option<DVec2>, Error> {
         match project2(self.d, p, self.projection, self.tol, 30) {
             Ok(q) => Ok(Some(q)),
-            Err(ProjectError::NonFinite { value }) => {
-                Err(Error::NonFinite { what: "the internal-boundary function", value, at: [p.x, p.y, 0.0] })
-            }
-            Err(_) => Ok(None),
+            Err(e) => match projection_non_finite(&e, Function::Internal) {
+                Some(err) => Err(err),
+                None => Ok(None),
+            },
         }
     }
 

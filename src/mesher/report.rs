@@ -3,6 +3,12 @@
 
 use std::fmt;
 
+/// The quality floor of a triangle mesh (2-D and surfaces): a smallest q below it is a warning
+/// of the report.
+pub const Q_FLOOR: f64 = 0.3;
+/// The quality floor of a tetrahedral mesh, in degrees of the smallest dihedral angle.
+pub const DIHEDRAL_FLOOR: f64 = 10.0;
+
 /// Why the force loop of a run stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 #[non_exhaustive]
@@ -112,6 +118,16 @@ pub struct Report<Q> {
     /// smallest quality than the last one, the iteration of that state, which the run
     /// finished from (the best mesh so far, as `max_iter` promises).
     pub kept_iteration: Option<usize>,
+    /// How the domain was taken (2-D, 3-D): `Some` when the mesher decided between a signed
+    /// distance and a level set by sampling |grad d| over the box (the geometry declared
+    /// neither), `None` when the geometry declared it.
+    pub gradient_survey: Option<crate::geometry::GradientSurvey>,
+    /// True when the domain was meshed as a level set (first-order projection, d / |grad d|
+    /// as the distance), declared or decided.
+    pub level_set: bool,
+    /// What the run changed or doubts about its input (a part of the domain below the
+    /// resolution dropped, ...), one sentence each; printed as warnings.
+    pub notes: Vec<String>,
 }
 
 impl<Q> Report<Q> {
@@ -131,6 +147,9 @@ impl<Q> Report<Q> {
             metric: self.metric,
             stages: self.stages,
             kept_iteration: self.kept_iteration,
+            gradient_survey: self.gradient_survey,
+            level_set: self.level_set,
+            notes: self.notes,
         }
     }
 
@@ -143,6 +162,16 @@ impl<Q> Report<Q> {
 
     /// The warnings of the run, one line each (empty for a good run).
     pub(crate) fn warnings(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if let (Some(s), true) = (&self.gradient_survey, self.level_set) {
+            write!(
+                f,
+                "\nthe domain is a level set, not a signed distance (|grad d| {:.3} to {:.3} near d = 0): projected by gradient steps",
+                s.grad_min, s.grad_max
+            )?;
+        }
+        for n in &self.notes {
+            write!(f, "\nwarning: {n}")?;
+        }
         if self.boundary_nodes_off > 0 {
             write!(
                 f,

@@ -111,9 +111,51 @@ pub(crate) fn find(
         if kept.iter().chain(&opts.fixed).any(|k| k.distance(p) < gap) {
             continue;
         }
-        kept.push(refine(p, n1, n2, s, &normal, project)?);
+        let x = refine(p, n1, n2, s, &normal, project)?;
+        if !smooth_turn(x, n1, n2, s, &normal, project)? {
+            kept.push(x);
+        }
     }
     Ok(kept)
+}
+
+/// True when the boundary turns smoothly at `x` (a tight curve such as a thin ellipse's tip or
+/// a leading edge, not a corner): on a smooth curve of radius R the normals a step delta either
+/// way along it differ by about 2 delta / R, so the turn halves with the step, while at a corner
+/// it stays the angle of the corner. Tried with delta half the spacing `s`, then a tenth and a
+/// hundredth of that (a curve tighter than the spacing looks like a corner until the step is
+/// below its radius); a scale where the turn is under a degree says nothing (both probes on one
+/// side of a corner).
+fn smooth_turn(
+    x: DVec2,
+    n1: DVec2,
+    n2: DVec2,
+    s: f64,
+    normal: &dyn Fn(DVec2) -> DVec2,
+    project: &dyn Fn(DVec2) -> Result<Option<DVec2>, Error>,
+) -> Result<bool, Error> {
+    let bisector = (n1 + n2).normalize_or_zero();
+    let t = if bisector.length_squared() > 0.5 { bisector.perp() } else { n1.perp() };
+    let turn = |delta: f64| -> Result<Option<f64>, Error> {
+        let mut m = [DVec2::ZERO; 2];
+        for (k, dir) in [t, -t].into_iter().enumerate() {
+            let Some(q) = project(x + dir * delta)? else { return Ok(None) };
+            // Taken a little inside, off the kink a distance may have on d = 0.
+            let n = normal(q);
+            m[k] = normal(q - n * (1e-3 * delta));
+            if m[k].length_squared() < 0.5 {
+                return Ok(None);
+            }
+        }
+        Ok(Some(m[0].dot(m[1]).clamp(-1.0, 1.0).acos()))
+    };
+    for delta in [0.5 * s, 0.05 * s, 0.005 * s] {
+        let (Some(full), Some(half)) = (turn(delta)?, turn(0.5 * delta)?) else { continue };
+        if full > 1f64.to_radians() && half < 0.75 * full {
+            return Ok(true);
+        }
+    }
+    Ok(false)
 }
 
 /// Where the lines n1 . x = n1 . q1 and n2 . x = n2 . q2 meet (`None` when parallel).

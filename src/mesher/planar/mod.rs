@@ -8,6 +8,7 @@
 mod best;
 mod boundary;
 mod carve;
+mod coverage;
 mod density;
 mod equilibrium;
 mod features;
@@ -29,8 +30,8 @@ use start::*;
 
 pub(crate) use carve::{drop_small_fans, pinched_vertices};
 
-use crate::geometry::project::{project2, ProjectError, Projection};
-use crate::geometry::Implicit2;
+use crate::geometry::project::{project2, Projection};
+use crate::geometry::{decide2, Declared, Implicit2};
 use crate::mesher::input::{eval_d, eval_h_floor, survey};
 use crate::mesher::internal::{self, Internal};
 use crate::mesher::metric::{self, eval_metric, metric_triangle_q, Metric2, MetricFn2};
@@ -217,10 +218,10 @@ impl Ctx<'_> {
 fn project_point(domain: &dyn Implicit2, projection: Projection, h0: f64, p: DVec2) -> Result<Option<DVec2>, Error> {
     match project2(domain, p, projection, 1e-9 * h0, 20) {
         Ok(q) => Ok(Some(q)),
-        Err(ProjectError::NonFinite { value }) => {
-            Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, 0.0] })
-        }
-        Err(_) => Ok(None),
+        Err(e) => match truss::domain::projection_non_finite(&e, truss::domain::Function::Domain) {
+            Some(err) => Err(err),
+            None => Ok(None),
+        },
     }
 }
 
@@ -256,6 +257,9 @@ pub(crate) fn run_moving(
 ) -> Result<MeshOutput2, Error> {
     let t0 = Instant::now();
     let survey = survey(domain, opts)?;
+    let (distance, gradient_survey) = decide2(domain, opts.bbox[0], opts.bbox[1]);
+    let decided = Declared { inner: domain, distance };
+    let domain: &dyn Implicit2 = &decided;
     let projection = match opts.projection {
         Projection::Auto if domain.is_distance() => Projection::Exact,
         Projection::Auto => Projection::FirstOrder,
@@ -283,7 +287,7 @@ pub(crate) fn run_moving(
         projection,
         geps: 1e-3 * opts.h0,
         h_floor: survey.h_floor,
-        report: Report { feature_points: corners.len(), ..Report::default() },
+        report: Report { feature_points: corners.len(), gradient_survey, level_set: !distance, ..Report::default() },
         left: 0,
         joined: 0,
         from_previous: start.is_some(),
@@ -366,6 +370,10 @@ pub(crate) fn run_moving(
     }
     if let Err(e) = mesh.validate(Level::Geometry) {
         return Err(Error::broken("the finished mesh is invalid", e));
+    }
+    if start.is_none() && freeze.is_none() {
+        let notes = coverage::uncovered_notes(&ctx, &mesh)?;
+        ctx.report.notes.extend(notes);
     }
     let mut report = ctx.report;
     report.seconds = t0.elapsed().as_secs_f64();

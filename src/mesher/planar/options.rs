@@ -35,7 +35,8 @@ pub struct Options2 {
     pub fixed: Vec<DVec2>,
     /// Iteration cap; the best mesh so far is returned with `converged == false`.
     pub max_iter: usize,
-    /// Seed for every random choice (same input and seed, same output bit for bit).
+    /// Seed of the random choices: only the classic strategy (`Strategy::GlobalDelaunay`) makes
+    /// any; the local strategy is deterministic and does not read it.
     pub seed: u64,
     /// How boundary nodes are projected onto d = 0.
     pub projection: Projection,

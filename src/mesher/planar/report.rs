@@ -74,6 +74,16 @@ impl std::fmt::Display for Report<QualityStats> {
         if let Some(m) = &self.metric {
             write!(f, "\nmetric: {m}")?;
         }
+        if q.triangles > 0 && (q.q_min.is_nan() || q.q_min < crate::mesher::report::Q_FLOOR) {
+            write!(
+                f,
+                "\nwarning: poor triangles: q min {:.4} is below {} (angles {:.1} to {:.1} degrees)",
+                q.q_min,
+                crate::mesher::report::Q_FLOOR,
+                q.angle_min,
+                q.angle_max
+            )?;
+        }
         self.warnings(f)
     }
 }

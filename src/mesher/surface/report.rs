@@ -157,6 +157,18 @@ impl fmt::Display for Report<SurfaceQuality> {
             st.stage_seconds[1],
             st.stage_seconds[2],
             st.stage_seconds[3]
-        )
+        )?;
+        if q.triangles > 0 && (q.min_q.is_nan() || q.min_q < crate::mesher::report::Q_FLOOR) {
+            write!(f, "\nwarning: poor triangles: min q {:.3} is below {}", q.min_q, crate::mesher::report::Q_FLOOR)?;
+        }
+        if q.inward_faces > 0 || !q.closed_manifold {
+            write!(
+                f,
+                "\nwarning: the surface is {}a closed manifold and has {} inward faces",
+                if q.closed_manifold { "" } else { "NOT " },
+                q.inward_faces
+            )?;
+        }
+        self.warnings(f)
     }
 }

@@ -2,6 +2,7 @@
 //! that a bad value is a typed error naming the function and the point, found before anything
 //! large is allocated.
 
+use crate::geometry::project::{NonFiniteIn, ProjectError};
 use crate::Error;
 use glam::{DVec2, DVec3};
 
@@ -42,6 +43,30 @@ pub(crate) fn checked_d<P: DomainPoint>(d: f64, p: P) -> Result<f64, Error> {
     } else {
         Err(Error::NonFinite { what: "the distance function", value: d, at: p.xyz() })
     }
+}
+
+/// The error for a projection that met a non-finite number, naming what was not finite and
+/// where it was evaluated (a derived gradient is not called the function's value); `None` for
+/// the other projection failures. `function` is "the distance function" or the like.
+pub(crate) fn projection_non_finite(e: &ProjectError, function: Function) -> Option<Error> {
+    let ProjectError::NonFinite { value, kind, at } = *e else { return None };
+    let what = match (kind, function) {
+        (NonFiniteIn::Value, Function::Domain) => "the distance function, evaluated where a boundary projection led,",
+        (NonFiniteIn::Gradient, Function::Domain) => "the gradient of the distance function",
+        (NonFiniteIn::Value, Function::Internal) => "the internal-boundary function, evaluated where a projection led,",
+        (NonFiniteIn::Gradient, Function::Internal) => "the gradient of the internal-boundary function",
+        (NonFiniteIn::Point, _) => "a node position being projected onto the boundary",
+    };
+    Some(Error::NonFinite { what, value, at })
+}
+
+/// Which function a projection worked on, for [`projection_non_finite`].
+#[derive(Clone, Copy)]
+pub(crate) enum Function {
+    /// The domain's d.
+    Domain,
+    /// An internal boundary's d_I.
+    Internal,
 }
 
 /// The relative size at `p` (1 without a size function), raised to `floor` where it is not
@@ -102,6 +127,50 @@ pub(crate) fn check_input<P: DomainPoint>(h0: f64, lo: P, hi: P, fixed: &[P]) ->
         if c.iter().zip(l.iter().zip(&u)).any(|(x, (a, b))| x < a || x > b) {
             return Err(Error::Invalid(format!("fixed point {} lies outside the box", p.show())));
         }
+    }
+    check_fixed_gaps(h0, fixed)
+}
+
+/// Fixed points closer than this many h0 (the smallest target edge length) are refused: the
+/// edge between them would be that short, and no triangle on it could be good.
+pub(crate) const FIXED_GAP: f64 = 0.1;
+
+/// Fixed points pairwise at least [`FIXED_GAP`] h0 apart (a sweep along the first coordinate).
+fn check_fixed_gaps<P: DomainPoint>(h0: f64, fixed: &[P]) -> Result<(), Error> {
+    let gap = FIXED_GAP * h0;
+    let mut order: Vec<(Vec<f64>, usize)> = fixed.iter().enumerate().map(|(i, p)| (p.coords(), i)).collect();
+    order.sort_by(|a, b| a.0[0].total_cmp(&b.0[0]).then(a.1.cmp(&b.1)));
+    for (k, (a, ia)) in order.iter().enumerate() {
+        for (b, ib) in &order[k + 1..] {
+            if b[0] - a[0] >= gap {
+                break;
+            }
+            let dist = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt();
+            if dist < gap {
+                let (i, j) = ((*ia).min(*ib), (*ia).max(*ib));
+                return Err(Error::Invalid(format!(
+                    "fixed points {} and {} are {dist:e} apart, closer than {FIXED_GAP} h0 = {gap} (h0 is the \
+                     smallest edge length): no good element can join them; merge them or lower h0",
+                    fixed[i].show(),
+                    fixed[j].show()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A sample `p` of the box's boundary where d < 0 by more than 1e-3 h0 (d / |grad d| for a
+/// level set): the domain reaches past the box, which the meshers refuse (the start would
+/// mesh the enclosing simplex, far outside the box).
+pub(crate) fn check_box_boundary<P: DomainPoint>(d: f64, grad: f64, p: P, h0: f64) -> Result<(), Error> {
+    let dist = if grad > 0.0 && grad.is_finite() { d / grad } else { d };
+    if dist < -1e-3 * h0 {
+        return Err(Error::BadBox(format!(
+            "the domain reaches past the box: d = {d} < 0 at {} on the box's boundary. The box must \
+             contain the domain: enlarge it, or clip the domain to it (max(d, the box's distance))",
+            p.show()
+        )));
     }
     Ok(())
 }

@@ -43,8 +43,8 @@ pub(crate) mod start;
 #[cfg(test)]
 mod tests;
 
-use crate::geometry::project::{project3, ProjectError, Projection};
-use crate::geometry::Implicit3;
+use crate::geometry::project::{project3, Projection};
+use crate::geometry::{decide3, Declared, Implicit3};
 use crate::mesher::MeshOutput3;
 use crate::mesher::Report;
 use crate::quality::tet_dihedral_quality;
@@ -99,10 +99,13 @@ impl Ctx<'_> {
     fn project(&self, p: DVec3) -> Result<Option<DVec3>, Error> {
         match project3(self.domain, p, self.projection, 1e-9 * self.opts.h0, 20) {
             Ok(q) => Ok(Some(q)),
-            Err(ProjectError::NonFinite { value }) => {
-                Err(Error::NonFinite { what: "the distance function", value, at: [p.x, p.y, p.z] })
-            }
-            Err(_) => Ok(None),
+            Err(e) => match crate::mesher::truss::domain::projection_non_finite(
+                &e,
+                crate::mesher::truss::domain::Function::Domain,
+            ) {
+                Some(err) => Err(err),
+                None => Ok(None),
+            },
         }
     }
     /// Approximate distance: d itself for distances, d / |grad d| otherwise.
@@ -121,6 +124,9 @@ impl Ctx<'_> {
 pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, Error> {
     let t0 = Instant::now();
     let survey = survey(domain, opts)?;
+    let (distance, gradient_survey) = decide3(domain, opts.bbox[0], opts.bbox[1]);
+    let decided = Declared { inner: domain, distance };
+    let domain: &dyn Implicit3 = &decided;
     let projection = match opts.projection {
         Projection::Auto if domain.is_distance() => Projection::Exact,
         Projection::Auto => Projection::FirstOrder,
@@ -131,7 +137,7 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
         opts,
         projection,
         h_floor: survey.h_floor,
-        report: Report::default(),
+        report: Report { gradient_survey, level_set: !distance, ..Report::default() },
         rng: opts.seed ^ 0x7472_7573_736d_6533,
         trace: std::env::var_os("TRUSSMESH_TRACE").is_some(),
         polish_worst: f64::NEG_INFINITY,

@@ -88,6 +88,14 @@ impl std::fmt::Display for Report<QualityStats3> {
         if self.feature_points > 0 {
             write!(f, "\n{} points held on sharp edges", self.feature_points)?;
         }
+        if q.tets > 0 && (q.dihedral_min.is_nan() || q.dihedral_min < crate::mesher::report::DIHEDRAL_FLOOR) {
+            write!(
+                f,
+                "\nwarning: poor tetrahedra: dihedral angles down to {:.1} degrees, below {}",
+                q.dihedral_min,
+                crate::mesher::report::DIHEDRAL_FLOOR
+            )?;
+        }
         self.warnings(f)
     }
 }

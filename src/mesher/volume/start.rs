@@ -6,7 +6,7 @@ use super::features::crease_points;
 use super::options::Options3;
 use super::{Ctx, CHUNK};
 use crate::geometry::Implicit3;
-use crate::mesher::truss::domain::{check_input, checked_d, checked_h};
+use crate::mesher::truss::domain::{check_box_boundary, check_input, checked_d, checked_h};
 use crate::topology::{TVertexId, TetId, TetMesh, VertexTag};
 use crate::Error;
 use glam::DVec3;
@@ -63,7 +63,12 @@ pub(crate) fn survey(domain: &dyn Implicit3, opts: &Options3) -> Result<Survey, 
         for j in 0..ny {
             for i in 0..nx {
                 let p = lo + DVec3::new(i as f64, j as f64, k as f64) * step;
-                if eval_d(domain, p)? < 0.0 {
+                let d = eval_d(domain, p)?;
+                let on_box = i == 0 || j == 0 || k == 0 || i == nx - 1 || j == ny - 1 || k == nz - 1;
+                if d < 0.0 && on_box {
+                    check_box_boundary(d, domain.gradient(p).length(), p, h0)?;
+                }
+                if d < 0.0 {
                     let h = eval_h_floor(opts, p, f64::NEG_INFINITY)?;
                     if h <= 0.0 {
                         return Err(Error::BadSize(format!(

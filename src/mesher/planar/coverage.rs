@@ -1,0 +1,106 @@
+//! Parts of the domain the finished mesh does not cover: a separate component smaller than the
+//! resolution (an island of radius below h0) has no start node deep enough to survive the carve
+//! and is dropped. That is the right mesh at this h0, but not a silent one: each uncovered part
+//! becomes a note of the report, with where it is and the advice to lower h0.
+//!
+//! The check samples the box at about h0 (as the survey does) and looks for points deeper
+//! inside than a fifth of the local target length (deeper than the chords of any boundary the
+//! mesh resolves cut off) that lie in no triangle.
+
+use super::Ctx;
+use crate::mesher::truss::domain::approx_distance;
+use crate::topology::TriMesh;
+use crate::Error;
+use glam::DVec2;
+use std::collections::HashMap;
+
+/// Depth, in local target lengths, past which a sample must be covered.
+const DEPTH: f64 = 0.2;
+
+/// The notes for the parts of the domain `mesh` leaves uncovered (empty when it covers it).
+pub(super) fn uncovered_notes(ctx: &Ctx, mesh: &TriMesh<DVec2>) -> Result<Vec<String>, Error> {
+    let opts = ctx.opts;
+    let [lo, hi] = opts.bbox;
+    let ext = hi - lo;
+    let nx = ((ext.x / opts.h0).ceil() as usize + 1).clamp(8, 512);
+    let ny = ((ext.y / opts.h0).ceil() as usize + 1).clamp(8, 512);
+    let step = DVec2::new(ext.x / (nx - 1) as f64, ext.y / (ny - 1) as f64);
+    // Triangles bucketed by the cells of the sample grid their bounding boxes touch.
+    let tris: Vec<[DVec2; 3]> = mesh.face_ids().map(|f| mesh.face_points(f)).collect();
+    let mut cells: HashMap<[usize; 2], Vec<u32>> = HashMap::new();
+    let cell = |p: DVec2| {
+        let c = ((p - lo) / step).floor();
+        [c.x.clamp(0.0, (nx - 1) as f64) as usize, c.y.clamp(0.0, (ny - 1) as f64) as usize]
+    };
+    for (k, t) in tris.iter().enumerate() {
+        let (a, b) = (cell(t[0].min(t[1]).min(t[2])), cell(t[0].max(t[1]).max(t[2])));
+        for j in a[1]..=b[1] {
+            for i in a[0]..=b[0] {
+                cells.entry([i, j]).or_default().push(k as u32);
+            }
+        }
+    }
+    let inside = |t: &[DVec2; 3], p: DVec2| {
+        let s = [(t[1] - t[0]).perp_dot(p - t[0]), (t[2] - t[1]).perp_dot(p - t[1]), (t[0] - t[2]).perp_dot(p - t[2])];
+        let tol = -1e-12 * (t[1] - t[0]).perp_dot(t[2] - t[0]).abs();
+        s.iter().all(|&v| v >= tol)
+    };
+    let mut missed = vec![false; nx * ny];
+    for j in 0..ny {
+        for i in 0..nx {
+            let p = lo + DVec2::new(i as f64, j as f64) * step;
+            let d = ctx.d(p)?;
+            if d >= 0.0 {
+                continue;
+            }
+            let g = if ctx.domain.is_distance() { 1.0 } else { ctx.domain.gradient(p).length() };
+            let depth = -approx_distance(d, g, ctx.domain.is_distance());
+            if depth <= DEPTH * opts.h0 * ctx.h(p)? {
+                continue;
+            }
+            let c = cell(p);
+            let covered = [c, [c[0].saturating_sub(1), c[1]], [c[0], c[1].saturating_sub(1)]]
+                .iter()
+                .filter_map(|c| cells.get(c))
+                .flatten()
+                .any(|&k| inside(&tris[k as usize], p));
+            missed[i + nx * j] = !covered;
+        }
+    }
+    // Group the missed samples into parts (8-connected on the grid), one note each.
+    let mut notes = Vec::new();
+    let mut seen = vec![false; nx * ny];
+    for start in 0..nx * ny {
+        if !missed[start] || seen[start] {
+            continue;
+        }
+        let (mut stack, mut count) = (vec![start], 0usize);
+        seen[start] = true;
+        while let Some(k) = stack.pop() {
+            count += 1;
+            let (i, j) = ((k % nx) as i64, (k / nx) as i64);
+            for (di, dj) in [(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+                let (a, b) = (i + di, j + dj);
+                if a < 0 || b < 0 || a >= nx as i64 || b >= ny as i64 {
+                    continue;
+                }
+                let n = a as usize + nx * b as usize;
+                if missed[n] && !seen[n] {
+                    seen[n] = true;
+                    stack.push(n);
+                }
+            }
+        }
+        let p = lo + DVec2::new((start % nx) as f64, (start / nx) as f64) * step;
+        notes.push(format!(
+            "a part of the domain at ({}, {}) ({count} sample{} at spacing {:.3}) is not meshed: it is \
+             below the resolution h0 = {} and was dropped; lower h0 to mesh it",
+            p.x,
+            p.y,
+            if count == 1 { "" } else { "s" },
+            step.x.max(step.y),
+            opts.h0
+        ));
+    }
+    Ok(notes)
+}

@@ -1,0 +1,191 @@
+//! Level sets meshed without being declared: the meshers sample |grad d| over the box and choose
+//! the projection themselves (docs/mesh2d.md, "Distance or level set"). Each test prints its
+//! table of measured numbers (`--nocapture`).
+
+use glam::{DVec2, DVec3};
+use trussmesh::expr::{Expr, ExprImplicit2};
+use trussmesh::geometry::{newton_distance2, survey_gradient2, Implicit2, Implicit3, LevelSet};
+use trussmesh::mesher::{mesh_2d, mesh_3d, size_deviation, Options2, Options3};
+use trussmesh::testing::Rng;
+use trussmesh::topology::Level;
+
+struct Row2 {
+    q_min: f64,
+    q_mean: f64,
+    size_dev: f64,
+    /// Largest distance of a boundary node from d = 0 (Newton closest point), over h0.
+    bdev: f64,
+    level_set: bool,
+    tris: usize,
+}
+
+/// Meshes `domain`; `dist` is the true distance to its boundary (by default the Newton closest
+/// point).
+fn mesh2(domain: &dyn Implicit2, opts: &Options2, dist: Option<&dyn Fn(DVec2) -> f64>) -> Row2 {
+    let out = mesh_2d(domain, opts).expect("meshes");
+    let m = &out.mesh;
+    m.validate(Level::Geometry).expect("valid mesh");
+    let newton = |p: DVec2| newton_distance2(domain, p, 1e-12, 50).unwrap_or(f64::INFINITY);
+    let dist = dist.unwrap_or(&newton);
+    let bdev = m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).map(|v| dist(m.pos(v)).abs()).fold(0.0, f64::max)
+        / opts.h0;
+    Row2 {
+        q_min: out.report.quality.q_min,
+        q_mean: out.report.quality.q_mean,
+        size_dev: size_deviation(m, &|_| 1.0),
+        bdev,
+        level_set: out.report.level_set,
+        tris: m.num_faces(),
+    }
+}
+
+/// The three level sets of the issue, as bare closures and as command-line expressions, with
+/// no flag: q min >= 0.7, q mean >= 0.97, size deviation <= 4%, boundary within 1e-3 h0.
+#[test]
+fn named_level_sets_mesh_without_a_flag() {
+    let pi = std::f64::consts::PI;
+    type Case = (&'static str, &'static str, [f64; 4], f64, Vec<[f64; 2]>);
+    let cases: [Case; 3] = [
+        ("ellipse", "x^2/4 + y^2 - 1", [-2.0, -1.0, 2.0, 1.0], 0.1, vec![]),
+        ("seed ex. 7", "max(y - cos(x), -y + 5*(2*x/(5*pi))^4 - 5)", [-2.5 * pi, -5.0, 2.5 * pi, 1.0], 0.3, vec![
+            [-2.5 * pi, 0.0],
+            [2.5 * pi, 0.0],
+        ]),
+        ("x^6 + y^6", "x^6 + y^6 - 1", [-1.0, -1.0, 1.0, 1.0], 0.1, vec![]),
+    ];
+    println!("{:12} {:8} {:>6} {:>7} {:>8} {:>9} {:>10} {:>6}", "case", "as", "tris", "q min", "q mean", "size dev", "bdev/h0", "level");
+    for (name, src, b, h0, fix) in cases {
+        let expr = Expr::parse(src).expect("parses");
+        let e2 = expr.clone();
+        let closure = move |p: DVec2| e2.eval(p.x, p.y, 0.0);
+        let exprgeom = ExprImplicit2::new(expr);
+        let opts = Options2::uniform(h0, [b[0], b[1]], [b[2], b[3]]).with_fixed(fix.clone());
+        for (how, g) in [("closure", &closure as &dyn Implicit2), ("expr", &exprgeom)] {
+            let r = mesh2(g, &opts, None);
+            println!(
+                "{name:12} {how:8} {:6} {:7.4} {:8.4} {:8.2}% {:10.2e} {:>6}",
+                r.tris,
+                r.q_min,
+                r.q_mean,
+                100.0 * r.size_dev,
+                r.bdev,
+                r.level_set
+            );
+            assert!(r.level_set, "{name}: taken as a level set");
+            assert!(r.q_min >= 0.7, "{name} {how}: q min {}", r.q_min);
+            assert!(r.q_mean >= 0.97, "{name} {how}: q mean {}", r.q_mean);
+            assert!(r.size_dev <= 0.04, "{name} {how}: size deviation {}", r.size_dev);
+            assert!(r.bdev <= 1e-3, "{name} {how}: boundary {} h0", r.bdev);
+        }
+    }
+}
+
+/// Distances transformed into level sets with the same zero set (powers, positive factors,
+/// exponentials), with random centres and sizes: meshed with no declaration as well as when
+/// declared level sets (the `--implicit` flag).
+#[test]
+fn random_level_sets_mesh_as_well_as_declared_2d() {
+    let mut rng = Rng::new(0x1e7e15e7);
+    println!("{:28} {:>8} {:>8} {:>8} {:>8} {:>9}", "level set", "q min", "flag", "q mean", "flag", "bdev/h0");
+    for k in 0..12 {
+        let (cx, cy, r) = (rng.range(-0.2, 0.2), rng.range(-0.2, 0.2), rng.range(0.6, 0.9));
+        let base = move |p: DVec2| {
+            if k % 2 == 0 {
+                (p - DVec2::new(cx, cy)).length() - r
+            } else {
+                ((p.x - cx).abs() - r).max((p.y - cy).abs() - 0.7 * r)
+            }
+        };
+        let a = rng.range(0.5, 2.0);
+        let (name, f): (&str, Box<dyn Fn(DVec2) -> f64 + Send + Sync>) = match k / 2 % 6 {
+            0 => ("d^3", Box::new(move |p| base(p).powi(3))),
+            1 => ("d (1 + a x^2)", Box::new(move |p| base(p) * (1.0 + a * p.x * p.x))),
+            2 => ("exp(a d) - 1", Box::new(move |p| (a * base(p)).exp() - 1.0)),
+            3 => ("a d", Box::new(move |p| (3.0 * a) * base(p))),
+            4 => ("d |d| (1 + y^2)", Box::new(move |p| base(p) * base(p).abs() * (1.0 + p.y * p.y))),
+            _ => ("sinh(a d)", Box::new(move |p| (a * base(p)).sinh())),
+        };
+        let shape = if k % 2 == 0 { "circle" } else { "rectangle" };
+        let opts = Options2::uniform(0.1, [-1.2, -1.2], [1.2, 1.2]);
+        let free = mesh2(&&*f, &opts, Some(&base));
+        let declared = mesh2(&LevelSet(&*f), &opts, Some(&base));
+        println!(
+            "{:28} {:8.4} {:8.4} {:8.4} {:8.4} {:9.2e}",
+            format!("{name}, {shape}"),
+            free.q_min,
+            declared.q_min,
+            free.q_mean,
+            declared.q_mean,
+            free.bdev
+        );
+        assert!(free.q_min >= 0.6 && free.q_mean >= 0.95, "{name} {shape}: q {} / {}", free.q_min, free.q_mean);
+        assert!(free.q_min >= declared.q_min - 0.05, "{name} {shape}: worse than declared");
+        assert!(free.q_mean >= declared.q_mean - 0.01, "{name} {shape}: worse than declared");
+        assert!(free.bdev <= 1e-3, "{name} {shape}: boundary {} h0", free.bdev);
+    }
+}
+
+/// The 3-D family: a ball and a box, transformed as in 2-D.
+#[test]
+fn random_level_sets_mesh_as_well_as_declared_3d() {
+    let mut rng = Rng::new(0x3d1e7e15);
+    println!("{:28} {:>8} {:>8} {:>8} {:>8}", "level set", "dih min", "flag", "rr mean", "flag");
+    for k in 0..6 {
+        let (c, r) = (DVec3::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), rng.range(-0.1, 0.1)), rng.range(0.7, 0.9));
+        let base = move |p: DVec3| {
+            if k % 2 == 0 {
+                (p - c).length() - r
+            } else {
+                let q = (p - c).abs() - DVec3::splat(r);
+                q.x.max(q.y).max(q.z)
+            }
+        };
+        let a = rng.range(0.5, 2.0);
+        let (name, f): (&str, Box<dyn Fn(DVec3) -> f64 + Send + Sync>) = match k / 2 {
+            0 => ("d^3", Box::new(move |p| base(p).powi(3))),
+            1 => ("d (1 + a x^2)", Box::new(move |p| base(p) * (1.0 + a * p.x * p.x))),
+            _ => ("exp(a d) - 1", Box::new(move |p| (a * base(p)).exp() - 1.0)),
+        };
+        let shape = if k % 2 == 0 { "ball" } else { "box" };
+        let opts = Options3::uniform(0.2, [-1.1; 3], [1.1; 3]);
+        let free = mesh_3d(&&*f, &opts).expect("meshes");
+        free.mesh.validate(Level::Geometry).expect("valid mesh");
+        let declared = mesh_3d(&LevelSet(&*f), &opts).expect("meshes");
+        let (fq, dq) = (free.report.quality, declared.report.quality);
+        println!(
+            "{:28} {:8.2} {:8.2} {:8.4} {:8.4}",
+            format!("{name}, {shape}"),
+            fq.dihedral_min,
+            dq.dihedral_min,
+            fq.rr_mean,
+            dq.rr_mean
+        );
+        assert!(free.report.level_set, "{name} {shape}: taken as a level set");
+        // The powered box's edges are not found as sharp features, declared or not (the
+        // comparison below holds; the absolute floor is for the smooth shapes).
+        if shape == "ball" {
+            assert!(fq.dihedral_min >= 10.0 && fq.rr_mean >= 0.8, "{name} {shape}: {fq:?}");
+        }
+        assert!(fq.dihedral_min >= dq.dihedral_min - 3.0, "{name} {shape}: worse than declared");
+        assert!(fq.rr_mean >= dq.rr_mean - 0.02, "{name} {shape}: worse than declared");
+    }
+}
+
+/// Distances stay distances: the survey finds |grad d| = 1 and the mesher projects exactly.
+#[test]
+fn distances_are_recognised() {
+    let circle = |p: DVec2| p.length() - 1.0;
+    let ring = |p: DVec2| (p.length() - 1.0).max(0.4 - p.length());
+    let poly = |p: DVec2| (p.x.abs() + p.y.abs() - 1.0) / 2f64.sqrt();
+    for g in [&circle as &dyn Implicit2, &ring, &poly] {
+        let s = survey_gradient2(g, DVec2::splat(-1.2), DVec2::splat(1.2));
+        println!("{s:?}");
+        assert!(s.distance, "{s:?}");
+        let out = mesh_2d(g, &Options2::uniform(0.1, [-1.2, -1.2], [1.2, 1.2])).expect("meshes");
+        assert!(!out.report.level_set);
+    }
+    let ball = |p: DVec3| p.length() - 1.0;
+    let out = mesh_3d(&ball, &Options3::uniform(0.25, [-1.1; 3], [1.1; 3])).expect("meshes");
+    assert!(!out.report.level_set);
+    let _ = &ball as &dyn Implicit3;
+}
