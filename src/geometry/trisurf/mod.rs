@@ -2,17 +2,17 @@
 //! distance to the triangles, so that the 3-D and surface meshers take a scanned or exported
 //! surface like any formula (seed section 3.1: "the distance function ... to the triangles").
 //!
-//! - Distance and nearest point: a bounding-volume hierarchy ([`bvh`]) over the triangles, the
+//! - Distance and nearest point: a bounding-volume hierarchy (module `bvh`) over the triangles, the
 //!   nearest point of each candidate triangle by its Voronoi regions ([`distance`]).
 //! - Sign: angle-weighted pseudo-normals at the nearest feature, the generalised winding number
-//!   where they leave it undecided ([`sign`]).
+//!   where they leave it undecided (module `sign`).
 //! - Gradient: (p - c) / d with c the nearest point, the unit vector along which the distance
 //!   grows; on the surface itself the pseudo-normal. So p - d grad d = c: projection onto the
 //!   input is exact in one step.
-//! - Checks ([`check`]): empty, degenerate, open, non-manifold, non-orientable and
+//! - Checks (module `check`): empty, degenerate, open, non-manifold, non-orientable and
 //!   self-intersecting input is refused with [`SurfaceError`], naming a triangle and where it
 //!   is; a reversed triangle among consistent ones is turned, exact duplicate vertices merged.
-//! - Sharp features ([`features`]): edges of high dihedral angle, corners, and points on them
+//! - Sharp features (module `features`): edges of high dihedral angle, corners, and points on them
 //!   for the meshers to hold.
 
 mod bvh;
