@@ -57,12 +57,20 @@ fn cases() -> Vec<Case> {
         v.push(case("level set, no flag", dom, &format!("mesh --domain '{dom}' --bbox {bbox} --h0 {h0}")));
     }
     for (dom, h0) in [("(sqrt(x^2+y^2+z^2)-1)^3", "0.25"), ("x^2+y^2/4+z^2-1", "0.25"), ("x^4+y^4+z^4-1", "0.25")] {
-        v.push(case("level set, no flag", format!("3-D {dom}"), &format!("mesh --dim 3 --domain '{dom}' --bbox -2,-2,-2,2,2,2 --h0 {h0}")));
+        v.push(case(
+            "level set, no flag",
+            format!("3-D {dom}"),
+            &format!("mesh --dim 3 --domain '{dom}' --bbox -2,-2,-2,2,2,2 --h0 {h0}"),
+        ));
     }
     // Islands below the resolution.
     for r in ["0.05", "0.02", "0.08", "0.12"] {
         let dom = format!("dunion(dcircle(x,y,-0.5,0,0.3),dcircle(x,y,0.5,0,{r}))");
-        v.push(case("island below h0", format!("island r = {r}, h0 0.1"), &format!("mesh --domain '{dom}' --h0 0.1 --bbox -1,-1,1,1")));
+        v.push(case(
+            "island below h0",
+            format!("island r = {r}, h0 0.1"),
+            &format!("mesh --domain '{dom}' --h0 0.1 --bbox -1,-1,1,1"),
+        ));
     }
     v.push(case(
         "island below h0",
@@ -78,10 +86,20 @@ fn cases() -> Vec<Case> {
         ("abs(y)-0.5", "strip"),
         ("x^2+y^2-4", "level set r = 2, box 1"),
     ] {
-        v.push(case("box not containing the domain", label, &format!("mesh --domain '{dom}' --h0 0.2 --bbox -1,-1,1,1")));
+        v.push(case(
+            "box not containing the domain",
+            label,
+            &format!("mesh --domain '{dom}' --h0 0.2 --bbox -1,-1,1,1"),
+        ));
     }
-    for (dom, label) in [("-1", "3-D d = -1"), ("sqrt(x^2+y^2+z^2)-1.2", "3-D ball r = 1.2 crossing the box"), ("z", "3-D half space")] {
-        v.push(case("box not containing the domain", label, &format!("mesh --dim 3 --domain '{dom}' --h0 0.3 --bbox -1,-1,-1,1,1,1")));
+    for (dom, label) in
+        [("-1", "3-D d = -1"), ("sqrt(x^2+y^2+z^2)-1.2", "3-D ball r = 1.2 crossing the box"), ("z", "3-D half space")]
+    {
+        v.push(case(
+            "box not containing the domain",
+            label,
+            &format!("mesh --dim 3 --domain '{dom}' --h0 0.3 --bbox -1,-1,-1,1,1,1"),
+        ));
     }
     // Fixed points too close.
     for gap in ["1e-12", "1e-6", "0.005", "0.0"] {
@@ -95,11 +113,21 @@ fn cases() -> Vec<Case> {
         v.push(case(
             "fixed points too close",
             format!("3-D, {gap} apart"),
-            &format!("mesh --dim 3 --domain 'sqrt(x^2+y^2+z^2)-1' --h0 0.3 --bbox -1,-1,-1,1,1,1 --fix '0,0,0;{gap},0,0'"),
+            &format!(
+                "mesh --dim 3 --domain 'sqrt(x^2+y^2+z^2)-1' --h0 0.3 --bbox -1,-1,-1,1,1,1 --fix '0,0,0;{gap},0,0'"
+            ),
         ));
     }
-    v.push(case("fixed points too close", "fixed point outside the box", "mesh --domain 'sqrt(x^2+y^2)-1' --h0 0.2 --bbox -1,-1,1,1 --fix '2,0'"));
-    v.push(case("fixed points too close", "fixed point outside the domain", "mesh --domain 'sqrt(x^2+y^2)-0.5' --h0 0.2 --bbox -1,-1,1,1 --fix '0.9,0.9'"));
+    v.push(case(
+        "fixed points too close",
+        "fixed point outside the box",
+        "mesh --domain 'sqrt(x^2+y^2)-1' --h0 0.2 --bbox -1,-1,1,1 --fix '2,0'",
+    ));
+    v.push(case(
+        "fixed points too close",
+        "fixed point outside the domain",
+        "mesh --domain 'sqrt(x^2+y^2)-0.5' --h0 0.2 --bbox -1,-1,1,1 --fix '0.9,0.9'",
+    ));
     // Non-finite and degenerate functions.
     for (dom, label) in [
         ("1/x", "pole on x = 0"),
@@ -143,8 +171,13 @@ fn cases() -> Vec<Case> {
         v.push(case("sharp and thin", label, &format!("mesh --domain '{dom}' --bbox {bbox} --h0 {h0}")));
     }
     // Metrics.
-    for (m, label) in [("1;0;1", "isotropic"), ("100;0;1", "10:1"), ("-1;0;1", "not positive"), ("1;2;1", "indefinite")] {
-        v.push(case("metric", label, &format!("mesh --domain 'drectangle(x,y,-1,1,-1,1)' --bbox -1,-1,1,1 --h0 0.1 --metric '{m}'")));
+    for (m, label) in [("1;0;1", "isotropic"), ("100;0;1", "10:1"), ("-1;0;1", "not positive"), ("1;2;1", "indefinite")]
+    {
+        v.push(case(
+            "metric",
+            label,
+            &format!("mesh --domain 'drectangle(x,y,-1,1,-1,1)' --bbox -1,-1,1,1 --h0 0.1 --metric '{m}'"),
+        ));
     }
     // Surfaces.
     for (phi, h0, label) in [

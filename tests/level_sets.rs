@@ -27,8 +27,8 @@ fn mesh2(domain: &dyn Implicit2, opts: &Options2, dist: Option<&dyn Fn(DVec2) ->
     m.validate(Level::Geometry).expect("valid mesh");
     let newton = |p: DVec2| newton_distance2(domain, p, 1e-12, 50).unwrap_or(f64::INFINITY);
     let dist = dist.unwrap_or(&newton);
-    let bdev = m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).map(|v| dist(m.pos(v)).abs()).fold(0.0, f64::max)
-        / opts.h0;
+    let bdev =
+        m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).map(|v| dist(m.pos(v)).abs()).fold(0.0, f64::max) / opts.h0;
     Row2 {
         q_min: out.report.quality.q_min,
         q_mean: out.report.quality.q_mean,
@@ -47,13 +47,19 @@ fn named_level_sets_mesh_without_a_flag() {
     type Case = (&'static str, &'static str, [f64; 4], f64, Vec<[f64; 2]>);
     let cases: [Case; 3] = [
         ("ellipse", "x^2/4 + y^2 - 1", [-2.0, -1.0, 2.0, 1.0], 0.1, vec![]),
-        ("seed ex. 7", "max(y - cos(x), -y + 5*(2*x/(5*pi))^4 - 5)", [-2.5 * pi, -5.0, 2.5 * pi, 1.0], 0.3, vec![
-            [-2.5 * pi, 0.0],
-            [2.5 * pi, 0.0],
-        ]),
+        (
+            "seed ex. 7",
+            "max(y - cos(x), -y + 5*(2*x/(5*pi))^4 - 5)",
+            [-2.5 * pi, -5.0, 2.5 * pi, 1.0],
+            0.3,
+            vec![[-2.5 * pi, 0.0], [2.5 * pi, 0.0]],
+        ),
         ("x^6 + y^6", "x^6 + y^6 - 1", [-1.0, -1.0, 1.0, 1.0], 0.1, vec![]),
     ];
-    println!("{:12} {:8} {:>6} {:>7} {:>8} {:>9} {:>10} {:>6}", "case", "as", "tris", "q min", "q mean", "size dev", "bdev/h0", "level");
+    println!(
+        "{:12} {:8} {:>6} {:>7} {:>8} {:>9} {:>10} {:>6}",
+        "case", "as", "tris", "q min", "q mean", "size dev", "bdev/h0", "level"
+    );
     for (name, src, b, h0, fix) in cases {
         let expr = Expr::parse(src).expect("parses");
         let e2 = expr.clone();
@@ -144,7 +150,8 @@ fn level_sets_3d(only: &str) {
     let mut rng = Rng::new(0x3d1e7e15);
     println!("{:28} {:>8} {:>8} {:>8} {:>8}", "level set", "dih min", "flag", "rr mean", "flag");
     for k in 0..6 {
-        let (c, r) = (DVec3::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), rng.range(-0.1, 0.1)), rng.range(0.7, 0.9));
+        let (c, r) =
+            (DVec3::new(rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), rng.range(-0.1, 0.1)), rng.range(0.7, 0.9));
         let base = move |p: DVec3| {
             if k % 2 == 0 {
                 (p - c).length() - r

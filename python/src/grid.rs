@@ -42,12 +42,7 @@ fn weights(t: f64) -> ([f64; 4], [f64; 4]) {
 fn values_only(t: f64) -> [f64; 4] {
     let t2 = t * t;
     let t3 = t2 * t;
-    [
-        0.5 * (-t3 + 2.0 * t2 - t),
-        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
-        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
-        0.5 * (t3 - t2),
-    ]
+    [0.5 * (-t3 + 2.0 * t2 - t), 0.5 * (3.0 * t3 - 5.0 * t2 + 2.0), 0.5 * (-3.0 * t3 + 4.0 * t2 + t), 0.5 * (t3 - t2)]
 }
 
 /// One axis: `n` nodes from `origin` at spacing `h`. Interpolation is defined on

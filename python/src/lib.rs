@@ -64,7 +64,8 @@ fn split_top(s: &str, sep: char) -> Vec<String> {
 }
 
 fn parse_expr(what: &str, src: &str, dim: usize) -> PyResult<Expr> {
-    let e = Expr::parse(src).map_err(|e| PyValueError::new_err(format!("bad {what} expression, {e}\n{}", e.render(src))))?;
+    let e = Expr::parse(src)
+        .map_err(|e| PyValueError::new_err(format!("bad {what} expression, {e}\n{}", e.render(src))))?;
     if dim == 2 && e.uses_z() {
         return Err(PyValueError::new_err(format!("the {what} expression {src:?} uses z in a 2-D run")));
     }
@@ -547,7 +548,10 @@ impl Flat {
     }
 
     /// (points, cells, labels, tags) as numpy arrays; the vectors are handed over, not copied.
-    fn into_py<'py>(self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    fn into_py<'py>(
+        self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
         let m = self.labels.len();
         Ok((
             PyArray1::from_vec(py, self.points).reshape([self.verts, self.dim])?.into_any(),
@@ -674,7 +678,11 @@ fn mesh_2d<'py>(
         o = o.with_size(move |p| h.value(p));
     }
     if let Some(i) = internal {
-        o = o.with_internal(Domain2 { field: Field2::from_py(i, "internal")?, distance: !implicit, stop: state.stop.clone() });
+        o = o.with_internal(Domain2 {
+            field: Field2::from_py(i, "internal")?,
+            distance: !implicit,
+            stop: state.stop.clone(),
+        });
     }
     if let Some(m) = metric {
         let [a, b, c] = metric2(m)?;

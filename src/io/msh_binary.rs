@@ -150,9 +150,8 @@ pub(crate) fn read(bytes: &[u8], path: &str) -> Result<MeshData, Error> {
             .to_string();
         match name.as_str() {
             "PhysicalNames" => {
-                let n: usize = line(&mut c)
-                    .and_then(|l| l.parse().ok())
-                    .ok_or_else(|| c.err("$PhysicalNames needs a count"))?;
+                let n: usize =
+                    line(&mut c).and_then(|l| l.parse().ok()).ok_or_else(|| c.err("$PhysicalNames needs a count"))?;
                 for _ in 0..n {
                     let l = line(&mut c).ok_or_else(|| c.err("the file ends inside $PhysicalNames"))?;
                     let mut it = l.splitn(3, char::is_whitespace);

@@ -5,8 +5,8 @@
 //! vertices on d_I = 0.
 
 use crate::geometry::project::{project2, Projection};
-use crate::mesher::truss::domain::{projection_non_finite, Function};
 use crate::geometry::Implicit2;
+use crate::mesher::truss::domain::{projection_non_finite, Function};
 use crate::topology::{FaceId, TriMesh, VertexId, VertexTag};
 use crate::Error;
 use glam::DVec2;

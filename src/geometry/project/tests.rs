@@ -145,10 +145,8 @@ fn seed_figure_3_2() {
     }
     // The true closest point: minimise |(x, sin 2 pi x) - p| by dense search then Newton.
     let f = |x: f64| (DVec2::new(x, (TAU * x).sin()) - p).length();
-    let mut xb = (0..100_000)
-        .map(|k| 0.23 + (k as f64 / 100_000.0 - 0.5) * 0.2)
-        .min_by(|a, b| f(*a).total_cmp(&f(*b)))
-        .unwrap();
+    let mut xb =
+        (0..100_000).map(|k| 0.23 + (k as f64 / 100_000.0 - 0.5) * 0.2).min_by(|a, b| f(*a).total_cmp(&f(*b))).unwrap();
     for _ in 0..50 {
         let h = 1e-6;
         let d1 = (f(xb + h) - f(xb - h)) / (2.0 * h);

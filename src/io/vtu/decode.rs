@@ -139,7 +139,11 @@ impl Layout<'_> {
             .ok_or_else(|| perr(self.path, a.line, format!("DataArray type {:?} is not supported", a.vtk_type)))?;
         let raw = self.raw(a)?;
         if raw.len() % w != 0 {
-            return Err(perr(self.path, a.line, format!("{} bytes is not a whole number of {}", raw.len(), a.vtk_type)));
+            return Err(perr(
+                self.path,
+                a.line,
+                format!("{} bytes is not a whole number of {}", raw.len(), a.vtk_type),
+            ));
         }
         let signed = a.vtk_type.starts_with("Int");
         let mut out = Vec::with_capacity(raw.len() / w);
@@ -152,7 +156,11 @@ impl Layout<'_> {
                 b[..w].copy_from_slice(c);
             }
             let x = if float {
-                let v = if w == 8 { f64::from_le_bytes(b) } else { f32::from_le_bytes(b[..4].try_into().expect("4")) as f64 };
+                let v = if w == 8 {
+                    f64::from_le_bytes(b)
+                } else {
+                    f32::from_le_bytes(b[..4].try_into().expect("4")) as f64
+                };
                 Num::F(v)
             } else if signed && b[w - 1] & 0x80 != 0 {
                 for byte in b.iter_mut().skip(w) {
@@ -235,4 +243,3 @@ pub(super) fn split_appended<'a>(bytes: &'a [u8], path: &str) -> Result<(String,
     xml.push_str(&text(&bytes[end + end_tag.len()..])?);
     Ok((xml, Some(Appended { data, base64 })))
 }
-

@@ -7,11 +7,11 @@ mod write;
 
 use super::text::{perr, settle_dim, Tokens};
 use super::{CellType, MeshData};
-use decode::{split_appended, Array, Layout, Stored};
-pub(crate) use write::write;
 use crate::Error;
+use decode::{split_appended, Array, Layout, Stored};
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::Reader;
+pub(crate) use write::write;
 
 /// Counts newlines incrementally so byte offsets turn into line numbers in linear time.
 struct LineCounter<'a> {
@@ -327,4 +327,3 @@ pub(crate) fn read(bytes: &[u8], path: &str) -> Result<MeshData, Error> {
     let dim = settle_dim(&mut points, cell_type);
     Ok(MeshData { dim, cell_type, points, cells, subdomain })
 }
-

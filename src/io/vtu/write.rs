@@ -98,12 +98,7 @@ fn arrays<'a>(m: &'a MeshData, kinds: Option<&[NodeKind]>) -> Vec<OutArray<'a>> 
     }
     v.extend([
         OutArray { section: "Points", name: "Points", components: 3, values: Values::F64(&m.points) },
-        OutArray {
-            section: "Cells",
-            name: "connectivity",
-            components: k,
-            values: ints(&mut m.cells.iter().copied()),
-        },
+        OutArray { section: "Cells", name: "connectivity", components: k, values: ints(&mut m.cells.iter().copied()) },
         OutArray { section: "Cells", name: "offsets", components: 1, values: ints(&mut (1..=n).map(|i| i * k)) },
         OutArray { section: "Cells", name: "types", components: 1, values: Values::U8(vec![ty; n]) },
     ]);
@@ -113,7 +108,8 @@ fn arrays<'a>(m: &'a MeshData, kinds: Option<&[NodeKind]>) -> Vec<OutArray<'a>> 
             v.push(OutArray { section: "CellData", name: "q", components: 1, values: finite(triangle_q_values(m)) })
         }
         CellType::Tetra => {
-            for (name, q) in [("radius_ratio", tet_radius_ratio_values(m)), ("min_dihedral", tet_min_dihedral_values(m))]
+            for (name, q) in
+                [("radius_ratio", tet_radius_ratio_values(m)), ("min_dihedral", tet_min_dihedral_values(m))]
             {
                 v.push(OutArray { section: "CellData", name, components: 1, values: finite(q) });
             }
