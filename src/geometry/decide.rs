@@ -145,6 +145,12 @@ impl Implicit2 for Declared<'_, dyn Implicit2 + '_> {
     fn gradient(&self, p: DVec2) -> DVec2 {
         self.inner.gradient(p)
     }
+    fn values(&self, ps: &[DVec2], out: &mut [f64]) {
+        self.inner.values(ps, out)
+    }
+    fn gradients(&self, ps: &[DVec2], out: &mut [DVec2]) {
+        self.inner.gradients(ps, out)
+    }
     fn hessian(&self, p: DVec2) -> Option<DMat2> {
         self.inner.hessian(p)
     }
@@ -162,6 +168,12 @@ impl Implicit3 for Declared<'_, dyn Implicit3 + '_> {
     }
     fn value_and_gradient(&self, p: DVec3) -> (f64, DVec3) {
         self.inner.value_and_gradient(p)
+    }
+    fn values(&self, ps: &[DVec3], out: &mut [f64]) {
+        self.inner.values(ps, out)
+    }
+    fn gradients(&self, ps: &[DVec3], out: &mut [DVec3]) {
+        self.inner.gradients(ps, out)
     }
     fn hessian(&self, p: DVec3) -> Option<DMat3> {
         self.inner.hessian(p)

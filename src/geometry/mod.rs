@@ -26,7 +26,10 @@ pub use grid::{Grid2, Grid3};
 pub use level_set::LevelSet;
 pub use primitives2::{Circle, Ellipse, Polygon, Rectangle};
 pub use primitives3::{Ball, Box3, Cylinder};
-pub use project::{newton_distance2, newton_distance3, project2, project3, NonFiniteIn, ProjectError, Projection};
+pub use project::{
+    newton_distance2, newton_distance3, project2, project3, project_many2, project_many3, NonFiniteIn, ProjectError,
+    Projection,
+};
 pub use transform::{Implicit2Ext, Implicit3Ext, Rotate, Scale, Translate};
 pub use trisurf::TriSurface;
 
@@ -43,6 +46,19 @@ pub trait Implicit2: Sync + Send {
             (self.value(p + dx) - self.value(p - dx)) / (2.0 * h),
             (self.value(p + dy) - self.value(p - dy)) / (2.0 * h),
         )
+    }
+    /// The values at many points: `out[i] = value(ps[i])`, bit for bit. The meshers call it
+    /// where they evaluate d over a whole set of nodes (every step of the force loop, the
+    /// boundary projections), so that a function with a cost per call (a Python callable, a
+    /// kernel on another device) is called once per set. The default evaluates point by point,
+    /// in parallel.
+    fn values(&self, ps: &[DVec2], out: &mut [f64]) {
+        batch(ps, out, |p| self.value(p));
+    }
+    /// The gradients at many points: `out[i] = gradient(ps[i])`, bit for bit (see
+    /// [`Implicit2::values`]).
+    fn gradients(&self, ps: &[DVec2], out: &mut [DVec2]) {
+        batch(ps, out, |p| self.gradient(p));
     }
     /// The Hessian, if the geometry can give it (needed by second-order projections).
     fn hessian(&self, _p: DVec2) -> Option<DMat2> {
@@ -83,6 +99,14 @@ pub trait Implicit3: Sync + Send {
     fn value_and_gradient(&self, p: DVec3) -> (f64, DVec3) {
         (self.value(p), self.gradient(p))
     }
+    /// The values at many points, bit for bit as `value`: see [`Implicit2::values`].
+    fn values(&self, ps: &[DVec3], out: &mut [f64]) {
+        batch(ps, out, |p| self.value(p));
+    }
+    /// The gradients at many points, bit for bit as `gradient`.
+    fn gradients(&self, ps: &[DVec3], out: &mut [DVec3]) {
+        batch(ps, out, |p| self.gradient(p));
+    }
     /// The Hessian, if the geometry can give it.
     fn hessian(&self, _p: DVec3) -> Option<DMat3> {
         None
@@ -94,6 +118,23 @@ pub trait Implicit3: Sync + Send {
     /// What the geometry declares: see [`Implicit2::declared_distance`].
     fn declared_distance(&self) -> Option<bool> {
         None
+    }
+}
+
+/// Points per parallel task of the default batch evaluations.
+const BATCH_CHUNK: usize = 256;
+
+/// `out[i] = f(ps[i])`, in parallel for large sets (each output depends on its point alone, so
+/// the result is the same for any thread count).
+fn batch<P: Copy + Sync, T: Send>(ps: &[P], out: &mut [T], f: impl Fn(P) -> T + Sync) {
+    use rayon::prelude::*;
+    assert_eq!(ps.len(), out.len(), "batch evaluation: as many outputs as points");
+    if ps.len() <= BATCH_CHUNK {
+        for (o, &p) in out.iter_mut().zip(ps) {
+            *o = f(p);
+        }
+    } else {
+        out.par_iter_mut().zip(ps.par_iter()).with_min_len(BATCH_CHUNK).for_each(|(o, &p)| *o = f(p));
     }
 }
 

@@ -126,6 +126,10 @@ type Matrix<const N: usize> = [[f64; N]; N];
 trait Geom<const N: usize> {
     fn value(&self, p: Vector<N>) -> f64;
     fn gradient(&self, p: Vector<N>) -> Vector<N>;
+    /// Values at many points at once (the geometry's batch evaluation).
+    fn values(&self, ps: &[Vector<N>]) -> Vec<f64>;
+    /// Gradients at many points at once.
+    fn gradients(&self, ps: &[Vector<N>]) -> Vec<Vector<N>>;
     fn hessian(&self, p: Vector<N>) -> Option<Matrix<N>>;
     fn is_distance(&self) -> bool;
 }
@@ -139,6 +143,18 @@ impl Geom<2> for G2<'_> {
     }
     fn gradient(&self, p: Vector<2>) -> Vector<2> {
         self.0.gradient(DVec2::from_array(p)).to_array()
+    }
+    fn values(&self, ps: &[Vector<2>]) -> Vec<f64> {
+        let ps: Vec<DVec2> = ps.iter().map(|&p| DVec2::from_array(p)).collect();
+        let mut out = vec![0.0; ps.len()];
+        self.0.values(&ps, &mut out);
+        out
+    }
+    fn gradients(&self, ps: &[Vector<2>]) -> Vec<Vector<2>> {
+        let ps: Vec<DVec2> = ps.iter().map(|&p| DVec2::from_array(p)).collect();
+        let mut out = vec![DVec2::ZERO; ps.len()];
+        self.0.gradients(&ps, &mut out);
+        out.into_iter().map(|g| g.to_array()).collect()
     }
     fn hessian(&self, p: Vector<2>) -> Option<Matrix<2>> {
         // Column-major from glam; the Hessian is symmetric, so rows = columns.
@@ -155,6 +171,18 @@ impl Geom<3> for G3<'_> {
     }
     fn gradient(&self, p: Vector<3>) -> Vector<3> {
         self.0.gradient(DVec3::from_array(p)).to_array()
+    }
+    fn values(&self, ps: &[Vector<3>]) -> Vec<f64> {
+        let ps: Vec<DVec3> = ps.iter().map(|&p| DVec3::from_array(p)).collect();
+        let mut out = vec![0.0; ps.len()];
+        self.0.values(&ps, &mut out);
+        out
+    }
+    fn gradients(&self, ps: &[Vector<3>]) -> Vec<Vector<3>> {
+        let ps: Vec<DVec3> = ps.iter().map(|&p| DVec3::from_array(p)).collect();
+        let mut out = vec![DVec3::ZERO; ps.len()];
+        self.0.gradients(&ps, &mut out);
+        out.into_iter().map(|g| g.to_array()).collect()
     }
     fn hessian(&self, p: Vector<3>) -> Option<Matrix<3>> {
         self.0.hessian(DVec3::from_array(p)).map(|m| m.to_cols_array_2d())
@@ -204,11 +232,7 @@ fn project<const N: usize>(
     if let Some(value) = first_non_finite(&p) {
         return Err(ProjectError::NonFinite { value, kind: NonFiniteIn::Point, at: at3(&p) });
     }
-    let method = match method {
-        Projection::Auto if g.is_distance() => Projection::Exact,
-        Projection::Auto => Projection::FirstOrder,
-        m => m,
-    };
+    let method = resolve(g, method);
     if method == Projection::Newton {
         return newton(g, p, tol, max_iter);
     }
@@ -255,6 +279,15 @@ fn project<const N: usize>(
         x = axpy(x, 1.0, step);
     }
     Err(ProjectError::NoConvergence { residual })
+}
+
+/// `Auto` made definite: exact for a signed distance, first order otherwise.
+fn resolve<const N: usize>(g: &impl Geom<N>, method: Projection) -> Projection {
+    match method {
+        Projection::Auto if g.is_distance() => Projection::Exact,
+        Projection::Auto => Projection::FirstOrder,
+        m => m,
+    }
 }
 
 /// The root multiplicity that two successive first-order steps `s0`, `s1` along one line
@@ -619,5 +652,8 @@ fn solve(a: &mut [[f64; 5]; 4], n: usize) -> Option<[f64; 4]> {
     first_non_finite(&x[..n]).is_none().then_some(x)
 }
 
+mod batch;
 #[cfg(test)]
 mod tests;
+
+pub use batch::{project_many2, project_many3};

@@ -224,3 +224,47 @@ fn bad_inputs_are_errors() {
         Err(ProjectError::NoConvergence { residual }) if (residual - 2.0).abs() < 1e-15
     ));
 }
+
+/// Deterministic points scattered over [-2, 2]^2 (a fixed linear congruential sequence).
+fn scatter2(n: usize) -> Vec<DVec2> {
+    let mut s: u64 = 0x9e3779b97f4a7c15;
+    let mut next = || {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
+    };
+    (0..n).map(|_| DVec2::new(next(), next())).collect()
+}
+
+#[test]
+fn batch_projection_matches_point_by_point_bit_for_bit() {
+    let pts = scatter2(700);
+    let circle = Circle::new([0.1, -0.2], 0.8);
+    let ellipse = Ellipse::new([0.0, 0.0], 1.5, 0.5);
+    // A steep level set (x^6 + y^6 - 1) and a cubed distance, where first-order steps take
+    // the accelerated form; and the seed's sine for Newton and second order.
+    let steep = crate::geometry::LevelSet(|p: DVec2| p.x.powi(6) + p.y.powi(6) - 1.0);
+    let cubed = crate::geometry::LevelSet(|p: DVec2| (p.length() - 1.0).powi(3));
+    let geoms: [(&str, &dyn Implicit2); 5] =
+        [("circle", &circle), ("ellipse", &ellipse), ("steep", &steep), ("cubed", &cubed), ("sine", &Sine)];
+    let mut accelerated = 0;
+    for (name, g) in geoms {
+        for method in [Projection::Auto, Projection::Exact, Projection::FirstOrder, Projection::SecondOrder, Projection::Newton] {
+            let batch = project_many2(g, &pts, method, 1e-10, 30);
+            for (p, b) in pts.iter().zip(&batch) {
+                let one = project2(g, *p, method, 1e-10, 30);
+                match (one, b) {
+                    (Ok(a), Ok(b)) => assert!(a.x.to_bits() == b.x.to_bits() && a.y.to_bits() == b.y.to_bits(), "{name} {method:?} at {p}: {a} vs {b}"),
+                    (Err(a), Err(b)) => assert_eq!(format!("{a:?}"), format!("{b:?}"), "{name} {method:?} at {p}"),
+                    (a, b) => panic!("{name} {method:?} at {p}: {a:?} vs {b:?}"),
+                }
+            }
+            if name == "cubed" && method == Projection::FirstOrder {
+                accelerated = batch.iter().filter(|r| r.is_ok()).count();
+            }
+        }
+    }
+    assert!(accelerated > 600, "the accelerated first-order steps were exercised: {accelerated}");
+    // A non-finite point is reported as such.
+    let bad = project_many2(&circle, &[DVec2::new(f64::NAN, 0.0)], Projection::Auto, 1e-10, 30);
+    assert!(matches!(bad[0], Err(ProjectError::NonFinite { kind: NonFiniteIn::Point, .. })));
+}

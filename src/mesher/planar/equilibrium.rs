@@ -259,59 +259,73 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             .map(|&(v, _, _)| v as usize)
             .collect();
         joining.dedup();
-        // Boundary nodes back onto d = 0; interior nodes must stay inside.
-        let fixes: Vec<(usize, DVec2)> = active
-            .par_iter()
-            .with_min_len(256)
+        // Boundary nodes back onto d = 0; interior nodes must stay inside. d is evaluated in
+        // batches over the active nodes (one call of a batch geometry per set, see
+        // `Implicit2::values`), and so are the projections.
+        let probed: Vec<usize> = active
+            .iter()
             .map(|&i| i as usize)
-            .filter_map(|i| match snap.kind[i] {
-                // Boundary nodes inside move freely (the carved start's outer row) and are
-                // projected once outside (seed step 7), as the pressure keeps them there.
-                NodeKind::Boundary => {
-                    let d = match ctx.approx_dist(newp[i]) {
-                        Ok(d) => d,
-                        Err(e) => return Some(Err(e)),
-                    };
-                    // Free inside only where the node could leave the boundary: over a concave
-                    // stretch (the chord of its neighbours outside) it is held on d = 0.
-                    let (a, c) = snap.loop_nbrs[i];
-                    let concave = a != u32::MAX
-                        && match ctx.approx_dist((p[a as usize] + p[c as usize]) * 0.5) {
-                            Ok(dc) => dc > -ctx.geps,
-                            Err(e) => return Some(Err(e)),
-                        };
-                    if d > 0.0 || concave {
-                        match ctx.project(newp[i]) {
-                            Ok(Some(q)) => Some(Ok((i, q))),
-                            Ok(None) => Some(Ok((i, p[i]))),
-                            Err(e) => Some(Err(e)),
-                        }
-                    } else {
-                        None
-                    }
-                }
-                NodeKind::Interior => match ctx.approx_dist(newp[i]) {
-                    Ok(d) if d > -ctx.geps => Some(Ok((i, p[i]))),
-                    Ok(_) => match ctx.crosses_internal(p[i], newp[i]) {
-                        // Held back, marked to join the internal boundary (NaN marker).
-                        Ok(true) => Some(Ok((i, DVec2::NAN))),
-                        Ok(false) => None,
-                        Err(e) => Some(Err(e)),
-                    },
-                    Err(e) => Some(Err(e)),
-                },
-                // Internal-boundary nodes back onto d_I = 0 every step: they slide along it, but
-                // never past a neighbour along it (near a corner of the curve the projection
-                // could jump to the far side of the corner).
-                NodeKind::Internal => match ctx.project_internal(newp[i]) {
-                    Ok(Some(q)) if snap.keeps_curve_order(i, &p, q) => Some(Ok((i, q))),
-                    Ok(Some(_)) => Some(Ok((i, p[i]))),
-                    Ok(None) => Some(Ok((i, p[i]))),
-                    Err(e) => Some(Err(e)),
-                },
-                _ => None,
+            .filter(|&i| matches!(snap.kind[i], NodeKind::Boundary | NodeKind::Interior))
+            .collect();
+        let dnew = ctx.approx_dists(&probed.iter().map(|&i| newp[i]).collect::<Vec<_>>())?;
+        // Free inside only where a boundary node could leave the boundary: over a concave
+        // stretch (the chord of its neighbours outside) it is held on d = 0.
+        let chords: Vec<usize> = probed
+            .iter()
+            .copied()
+            .filter(|&i| snap.kind[i] == NodeKind::Boundary && snap.loop_nbrs[i].0 != u32::MAX)
+            .collect();
+        let mids: Vec<DVec2> = chords
+            .iter()
+            .map(|&i| {
+                let (a, c) = snap.loop_nbrs[i];
+                (p[a as usize] + p[c as usize]) * 0.5
             })
-            .collect::<Result<Vec<_>, Error>>()?;
+            .collect();
+        let dmid = ctx.approx_dists(&mids)?;
+        let mut concave = vec![false; p.len()];
+        for (&i, &dc) in chords.iter().zip(&dmid) {
+            concave[i] = dc > -ctx.geps;
+        }
+        // Boundary nodes inside move freely (the carved start's outer row) and are projected
+        // once outside (seed step 7), as the pressure keeps them there.
+        let to_project: Vec<usize> = probed
+            .iter()
+            .zip(&dnew)
+            .filter(|&(&i, &d)| snap.kind[i] == NodeKind::Boundary && (d > 0.0 || concave[i]))
+            .map(|(&i, _)| i)
+            .collect();
+        let projected = ctx.project_many(&to_project.iter().map(|&i| newp[i]).collect::<Vec<_>>())?;
+        let mut fixes: Vec<(usize, DVec2)> = Vec::new();
+        for (&i, q) in to_project.iter().zip(projected) {
+            fixes.push((i, q.unwrap_or(p[i])));
+        }
+        // Interior nodes: held where the step leaves the domain, or crosses an internal
+        // boundary (marked NaN to join it).
+        for (&i, &d) in probed.iter().zip(&dnew) {
+            if snap.kind[i] != NodeKind::Interior {
+                continue;
+            }
+            if d > -ctx.geps {
+                fixes.push((i, p[i]));
+            } else if ctx.crosses_internal(p[i], newp[i])? {
+                fixes.push((i, DVec2::NAN));
+            }
+        }
+        // Internal-boundary nodes back onto d_I = 0 every step: they slide along it, but never
+        // past a neighbour along it (near a corner of the curve the projection could jump to
+        // the far side of the corner).
+        for &i in &active {
+            let i = i as usize;
+            if snap.kind[i] == NodeKind::Internal {
+                let q = match ctx.project_internal(newp[i])? {
+                    Some(q) if snap.keeps_curve_order(i, &p, q) => q,
+                    _ => p[i],
+                };
+                fixes.push((i, q));
+            }
+        }
+        fixes.sort_unstable_by_key(|f| f.0);
         let mut joining_internal = Vec::new();
         for (i, q) in fixes {
             if q.is_nan() {

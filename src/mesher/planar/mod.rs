@@ -30,7 +30,7 @@ use start::*;
 
 pub(crate) use carve::{drop_small_fans, pinched_vertices};
 
-use crate::geometry::project::{project2, Projection};
+use crate::geometry::project::{project2, project_many2, ProjectError, Projection};
 use crate::geometry::{decide2, Declared, Implicit2};
 use crate::mesher::input::{eval_d, eval_h_floor, survey};
 use crate::mesher::internal::{self, Internal};
@@ -206,6 +206,28 @@ impl Ctx<'_> {
             None => Ok(None),
         }
     }
+    /// [`Ctx::approx_dist`] at every point of `ps`, evaluated in batches (one call of
+    /// `Implicit2::values`, and of `gradients` for a level set): bit for bit the same numbers.
+    fn approx_dists(&self, ps: &[DVec2]) -> Result<Vec<f64>, Error> {
+        let mut d = vec![0.0; ps.len()];
+        self.domain.values(ps, &mut d);
+        for (&v, &p) in d.iter().zip(ps) {
+            truss::domain::checked_d(v, p)?;
+        }
+        if self.domain.is_distance() {
+            return Ok(d);
+        }
+        let mut g = vec![DVec2::ZERO; ps.len()];
+        self.domain.gradients(ps, &mut g);
+        Ok(d.iter().zip(&g).map(|(&v, g)| truss::domain::approx_distance(v, g.length(), false)).collect())
+    }
+    /// [`Ctx::project`] of every point of `ps`, in batches.
+    fn project_many(&self, ps: &[DVec2]) -> Result<Vec<Option<DVec2>>, Error> {
+        project_many2(self.domain, ps, self.projection, 1e-9 * self.opts.h0, PROJECT_ITER)
+            .into_iter()
+            .map(projected)
+            .collect()
+    }
     /// Approximate distance: d itself for distances, d / |grad d| otherwise.
     fn approx_dist(&self, p: DVec2) -> Result<f64, Error> {
         let d = self.d(p)?;
@@ -216,7 +238,16 @@ impl Ctx<'_> {
 
 /// The projection of `p` onto d = 0 to within 1e-9 h0 (`None` when it does not converge).
 fn project_point(domain: &dyn Implicit2, projection: Projection, h0: f64, p: DVec2) -> Result<Option<DVec2>, Error> {
-    match project2(domain, p, projection, 1e-9 * h0, 20) {
+    projected(project2(domain, p, projection, 1e-9 * h0, PROJECT_ITER))
+}
+
+/// Steps of a boundary projection at most.
+const PROJECT_ITER: usize = 20;
+
+/// A projection's result as the mesher takes it: the point, `None` when it did not converge
+/// (the node is kept where it was), or the error naming a non-finite value.
+fn projected(r: Result<DVec2, ProjectError>) -> Result<Option<DVec2>, Error> {
+    match r {
         Ok(q) => Ok(Some(q)),
         Err(e) => match truss::domain::projection_non_finite(&e, truss::domain::Function::Domain) {
             Some(err) => Err(err),
