@@ -248,12 +248,17 @@ fn batch_projection_matches_point_by_point_bit_for_bit() {
         [("circle", &circle), ("ellipse", &ellipse), ("steep", &steep), ("cubed", &cubed), ("sine", &Sine)];
     let mut accelerated = 0;
     for (name, g) in geoms {
-        for method in [Projection::Auto, Projection::Exact, Projection::FirstOrder, Projection::SecondOrder, Projection::Newton] {
+        for method in
+            [Projection::Auto, Projection::Exact, Projection::FirstOrder, Projection::SecondOrder, Projection::Newton]
+        {
             let batch = project_many2(g, &pts, method, 1e-10, 30);
             for (p, b) in pts.iter().zip(&batch) {
                 let one = project2(g, *p, method, 1e-10, 30);
                 match (one, b) {
-                    (Ok(a), Ok(b)) => assert!(a.x.to_bits() == b.x.to_bits() && a.y.to_bits() == b.y.to_bits(), "{name} {method:?} at {p}: {a} vs {b}"),
+                    (Ok(a), Ok(b)) => assert!(
+                        a.x.to_bits() == b.x.to_bits() && a.y.to_bits() == b.y.to_bits(),
+                        "{name} {method:?} at {p}: {a} vs {b}"
+                    ),
                     (Err(a), Err(b)) => assert_eq!(format!("{a:?}"), format!("{b:?}"), "{name} {method:?} at {p}"),
                     (a, b) => panic!("{name} {method:?} at {p}: {a:?} vs {b:?}"),
                 }

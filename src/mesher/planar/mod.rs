@@ -228,6 +228,21 @@ impl Ctx<'_> {
             .map(projected)
             .collect()
     }
+    /// The approximate distance from the centroid of the triangle `t` to d = 0, for the tests
+    /// that drop triangles as certainly outside: d itself for a distance; for a level set d
+    /// divided by the largest |grad d| at the centroid and the corners. d / |grad d| at the
+    /// centroid alone is far too large near a critical point of d (the centre of a round hole,
+    /// where a difference quotient of the gradient is round-off): the enclosing triangle
+    /// of a domain with a hole at the box's centre was then dropped whole.
+    fn distance_bound(&self, t: [DVec2; 3]) -> Result<f64, Error> {
+        let c = (t[0] + t[1] + t[2]) / 3.0;
+        let d = self.d(c)?;
+        if self.domain.is_distance() {
+            return Ok(d);
+        }
+        let g = [c, t[0], t[1], t[2]].iter().map(|&p| self.domain.gradient(p).length()).fold(0.0, f64::max);
+        Ok(truss::domain::approx_distance(d, g, false))
+    }
     /// Approximate distance: d itself for distances, d / |grad d| otherwise.
     fn approx_dist(&self, p: DVec2) -> Result<f64, Error> {
         let d = self.d(p)?;

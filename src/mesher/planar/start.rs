@@ -211,7 +211,7 @@ pub(super) fn refine_uniform(ctx: &Ctx, corners: &[DVec2], cap: usize) -> Result
             .map(|t| {
                 let [a, b, c] = t.map(|i| pts[i]);
                 let lmax = a.distance(b).max(b.distance(c)).max(c.distance(a));
-                Ok(ctx.approx_dist((a + b + c) / 3.0)? > safety * lmax)
+                Ok(ctx.distance_bound([a, b, c])? > safety * lmax)
             })
             .collect::<Result<Vec<bool>, Error>>()?;
         let kept = outside.iter().filter(|&&o| !o).count();
@@ -242,7 +242,7 @@ pub(super) fn refine_uniform(ctx: &Ctx, corners: &[DVec2], cap: usize) -> Result
 pub(super) fn face_certainly_outside(ctx: &Ctx, m: &TriMesh<DVec2>, f: crate::topology::FaceId) -> Result<bool, Error> {
     let [a, b, c] = m.face_points(f);
     let lmax = a.distance(b).max(b.distance(c)).max(c.distance(a));
-    let d = ctx.approx_dist((a + b + c) / 3.0)?;
+    let d = ctx.distance_bound([a, b, c])?;
     let safety = if ctx.domain.is_distance() { 1.0 } else { 2.0 };
     Ok(d > safety * lmax)
 }
