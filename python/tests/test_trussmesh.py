@@ -39,7 +39,7 @@ def test_distmesh2d_unit_disk():
     p, t = tm.distmesh2d(disk, tm.huniform, 0.1, [[-1, -1], [1, 1]])
     assert p.dtype == np.float64 and p.shape[1] == 2
     assert t.dtype == np.int64 and t.shape[1] == 3
-    assert len(p) == 366 and len(t) == 670
+    assert len(p) == 372 and len(t) == 682
     q = tri_q(p, t)
     assert q.min() > 0.85 and q.mean() > 0.98
     # Counter-clockwise, every point used, the area of the disk to the polygon's error.
@@ -74,17 +74,17 @@ def test_same_input_same_output():
 CLI = {
     "ex1a": (19, 0.946, 0.971),
     "ex1b": (96, 0.913, 0.979),
-    "ex1c": (366, 0.903, 0.989),
-    "ex2": (327, 0.887, 0.984),
-    "ex3a": (200, 0.796, 0.980),
+    "ex1c": (372, 0.943, 0.992),
+    "ex2": (327, 0.902, 0.984),
+    "ex3a": (195, 0.814, 0.980),
     "ex3b": (276, 0.824, 0.970),
     "ex4": (265, 0.892, 0.987),
     "ex5": (213, 0.798, 0.976),
-    "ex6": (322, 0.881, 0.981),
-    "ex7": (852, 0.850, 0.990),
-    "ex8": (1170, 0.822, 0.979),
-    "ellipse": (186, 0.864, 0.979),
-    "fig3-5": (1919, 0.674, 0.978),
+    "ex6": (311, 0.878, 0.987),
+    "ex7": (854, 0.866, 0.991),
+    "ex8": (1137, 0.826, 0.987),
+    "ellipse": (185, 0.911, 0.987),
+    "fig3-5": (1917, 0.695, 0.978),
 }
 
 
@@ -93,9 +93,12 @@ def test_seed_examples_at_the_command_lines_quality(name):
     nodes, qmin, qmean = CLI[name]
     p, t = seed.distmesh(name)
     q = tri_q(p, t)
+    # The tolerances are the command line's own spread on inputs perturbed by 1e-12 to 1e-5
+    # (tests/perturbed_inputs.rs: q mean within 0.003, q min within 0.04): the sampled
+    # callable differs from the expression by about that much.
     assert abs(len(p) - nodes) <= 0.06 * nodes, (len(p), nodes)
-    assert q.min() >= qmin - 0.05, (q.min(), qmin)
-    assert q.mean() >= qmean - 0.012, (q.mean(), qmean)
+    assert q.min() >= qmin - 0.02, (q.min(), qmin)
+    assert q.mean() >= qmean - 0.003, (q.mean(), qmean)
     if name not in ("ex8", "fig3-5"):
         # The seed's own criterion (section 2.7).
         assert q.min() > 0.7 and q.mean() > 0.96
@@ -119,9 +122,10 @@ def test_seed_internal_boundaries_label_subdomains():
 def test_seed_anisotropic_circle_in_its_metric():
     m = seed.run("fig3-6")
     met = m.report["metric"]
-    # The command line: 96.0 % of edges in [0.707, 1.414], metric q min 0.549, mean 0.931.
-    assert met["in_band"] > 0.9
-    assert met["q_min"] > 0.45 and met["q_mean"] > 0.9
+    # The command line: 96.0 % of edges in [0.707, 1.414], metric q min 0.549, mean 0.931;
+    # with d perturbed by 1e-7 its q min is 0.440 (the worst element hangs on such changes).
+    assert met["in_band"] > 0.95
+    assert met["q_min"] >= 0.44 and met["q_mean"] >= 0.931 - 0.003
 
 
 # ============================ the full API ============================
@@ -131,7 +135,7 @@ def test_expression_string_and_callable_agree():
     e = tm.mesh_2d("sqrt(x^2+y^2)-1", bbox=(-1, -1, 1, 1), h0=0.1)
     c = tm.mesh_2d(disk, bbox=(-1, -1, 1, 1), h0=0.1)
     assert e.report["sampling"] is None
-    assert len(e.points) == len(c.points) == 366
+    assert len(e.points) == len(c.points) == 372
     assert abs(e.report["quality"]["q_min"] - c.report["quality"]["q_min"]) < 1e-3
     assert e.report["stop"] == "at_rest" and e.report["converged"]
     assert e.report["quality"]["triangles"] == len(e.cells)

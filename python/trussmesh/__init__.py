@@ -336,9 +336,35 @@ class _Grid:
             out[k0:k1] = v.reshape([k1 - k0] + self.n[:-1][::-1] + tail)
         return out
 
+    def sample_on_boundary_outside(self, f: Callable, name: str, d: np.ndarray, ncomp: int = 1) -> np.ndarray:
+        """f on every node as `sample` gives it, except that nodes outside the domain (d > 0,
+        with d the domain's samples on this grid) are first moved onto d = 0 by a first-order
+        step: f there is f at the nearby boundary point, as the library takes a metric outside
+        the domain. The seed's metrics need not make sense outside (figure 3-6's radial size is
+        negative a little beyond the circle), and their outside values would otherwise enter
+        the interpolant within two grid cells inside the boundary."""
+        grads = np.gradient(d, self.spacing)
+        g = np.stack(grads[::-1], axis=-1)  # x component first
+        slab = int(np.prod(self.n[:-1]))
+        per = max(1, BATCH // slab)
+        tail = [ncomp] if ncomp > 1 else []
+        out = np.empty(self.n[::-1] + tail, dtype=np.float64)
+        for k0 in range(0, self.n[-1], per):
+            k1 = min(k0 + per, self.n[-1])
+            pts = self.nodes(k0, k1)
+            dd = d[k0:k1].reshape(-1)
+            gg = g[k0:k1].reshape(-1, self.dim)
+            g2 = (gg**2).sum(axis=1)
+            out_side = (dd > 0) & (g2 > 0)
+            pts[out_side] -= (dd[out_side] / g2[out_side])[:, None] * gg[out_side]
+            v = self.call(f, name, pts, ncomp)
+            out[k0:k1] = v.reshape([k1 - k0] + self.n[:-1][::-1] + tail)
+        return out
+
     def field(self, f: Callable, name: str, pin: Optional[np.ndarray] = None) -> Any:
         """f sampled as a Sampled2 / Sampled3, exact at the points `pin`."""
         values = self.sample(f, name)
+        self.last_values = values
         cls = _core.Sampled2 if self.dim == 2 else _core.Sampled3
         if pin is not None and len(pin):
             exact = self.call(f, name, pin)
@@ -573,7 +599,10 @@ def mesh_2d(
     internal_arg = grid.field(internal, _name(internal, "internal"), pfix) if _is_callable_field(internal) else internal
     metric_arg: Any = metric
     if _is_callable_field(metric):
-        m = grid.sample(metric, _name(metric, "metric"), ncomp=3)
+        if _is_callable_field(fd):
+            m = grid.sample_on_boundary_outside(metric, _name(metric, "metric"), grid.last_values, ncomp=3)
+        else:
+            m = grid.sample(metric, _name(metric, "metric"), ncomp=3)
         metric_arg = tuple(_core.Sampled2(np.ascontiguousarray(m[..., k]), tuple(grid.origin), grid.spacing) for k in range(3))
     p, t, labels, tags, report = _core.mesh_2d(
         domain,
