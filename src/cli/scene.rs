@@ -115,6 +115,7 @@ pub fn scene_spec(text: &str, name: &str) -> Result<Spec, Failure> {
         auto: Default::default(),
         h0: s.h0.text(),
         bbox: s.bbox.iter().map(Num::text).collect(),
+        place: Default::default(),
         fix: s.fix.unwrap_or_default().iter().map(|p| p.iter().map(Num::text).collect()).collect(),
         max_iter: s.max_iter,
         seed: s.seed,
