@@ -132,6 +132,15 @@ fn the_disk_from_a_grid_meshes_at_the_quality_of_its_formula() {
     );
     same(&mesh(&d, &["--domain", "disk.vti", "--h0", "0.1"]), "vti ascii");
     same(&mesh(&d, &["--domain", "disk_b.vti", "--h0", "0.1"]), "vti binary");
+    // A scene file places the .npy grid the same way.
+    std::fs::write(
+        d.join("disk.toml"),
+        "domain = \"disk.npy\"\norigin = [-1.1, -1.1]\nspacing = 0.05\nh0 = 0.1\nbbox = [-1.1, -1.1, 1.1, 1.1]\n",
+    )
+    .unwrap();
+    let out = run(&d, &["mesh", "-q", "disk.toml", "-o", "scene.vtu"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    same(&read_mesh(&d.join("scene.vtu")).unwrap(), "scene file");
 }
 
 #[test]
@@ -234,7 +243,7 @@ fn bad_grid_files_are_refused() {
     refused(&d, &["--dim", "3", "--domain", "disk.npy", "--spacing", "0.05"], "is a 2-D grid");
     refused(&d, &["--domain", "short.vti"], "truncated");
     refused(&d, &["--domain", "shape.vti"], "shape [45, 46] needs 2070 values but the file holds 2025");
-    refused(&d, &["--domain", "nan.vti"], "is NaN");
+    refused(&d, &["--domain", "nan.vti"], "grid value: \"NaN\" is not a finite number");
     refused(&d, &["--domain", "disk.vti", "--spacing", "0.05"], "gives its own origin and spacing");
     refused(&d, &["--domain", "sqrt(x^2+y^2)-1", "--bbox", "-1,-1,1,1", "--spacing", "0.05"], "go with a .npy grid");
     refused(
