@@ -142,6 +142,11 @@ fn docs_commands_run() {
         );
         std::fs::write(dir.join(name), &b).unwrap();
     }
+    // The grid example's .npy, as its python line makes it: the unit disk's distance at 0.05.
+    std::fs::create_dir_all(dir.join("out")).unwrap();
+    let x: Vec<f64> = (0..45).map(|i| -1.1 + 0.05 * i as f64).collect();
+    let disk: Vec<f64> = x.iter().flat_map(|y| x.iter().map(move |x| x.hypot(*y) - 1.0)).collect();
+    std::fs::write(dir.join("out/disk.npy"), trussmesh::io::grid_file::npy_bytes([45, 45, 1], 2, &disk)).unwrap();
     let cmds = doc_mesh_commands();
     assert!(cmds.len() >= 15, "{cmds:?}");
     let mut failures = Vec::new();

@@ -160,7 +160,55 @@ fn size_auto_is_the_old_curvature_flag() {
     let uniform = trussmesh::io::read_mesh(&d.join("u.obj")).unwrap();
     println!("torus: {} triangles with --size auto, {} uniform at h0", m.num_cells(), uniform.num_cells());
     assert!(m.num_cells() < uniform.num_cells(), "curvature sizes grow above h0 on the flat side");
+    // A size expression is a relative size now; with --hmax (a flag of --size auto) it is refused.
     let (code, _, err) = run(&d, &common.iter().copied().chain(["--size", "x+1", "-o", "c.obj"]).collect::<Vec<_>>());
     assert_eq!(code, 2);
-    assert!(err.contains("surface --size takes auto"), "{err}");
+    assert!(err.contains("go with --size auto"), "{err}");
+    assert!(!d.join("c.obj").exists());
+}
+
+/// `surface --phi ... --size EXPR`: a relative size for an implicit surface; the edge lengths
+/// follow h (the smallest size near the surface becomes h0).
+#[test]
+fn a_size_expression_grades_an_implicit_surface() {
+    let d = tmp("size_expr");
+    let h = |x: f64| 2.0 + x; // 1 at x = -1, 3 at x = 1
+    let (code, out, err) =
+        run(&d, &["surface", "--phi", SPHERE, "--bbox", BOX, "--h0", "0.08", "--size", "2+x", "-o", "s.obj"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("Euler characteristic 2"), "{out}");
+    let m = trussmesh::io::read_mesh(&d.join("s.obj")).unwrap();
+    let (mut left, mut right, mut ratios) = ((0.0, 0), (0.0, 0), Vec::new());
+    for i in 0..m.num_cells() {
+        let c = m.cell(i);
+        for k in 0..3 {
+            let (p, q) = (m.points[c[k]], m.points[c[(k + 1) % 3]]);
+            let len = (0..3).map(|j| (p[j] - q[j]).powi(2)).sum::<f64>().sqrt();
+            let x = 0.5 * (p[0] + q[0]);
+            ratios.push(len / h(x));
+            if x < -0.8 {
+                left.0 += len;
+                left.1 += 1;
+            } else if x > 0.8 {
+                right.0 += len;
+                right.1 += 1;
+            }
+        }
+    }
+    let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;
+    let spread = (ratios.iter().map(|r| (r / mean - 1.0).powi(2)).sum::<f64>() / ratios.len() as f64).sqrt();
+    let (l, r) = (left.0 / left.1 as f64, right.0 / right.1 as f64);
+    let uniform = run(&d, &["surface", "--phi", SPHERE, "--bbox", BOX, "--h0", "0.08", "-q", "-o", "u.obj"]);
+    assert_eq!(uniform.0, 0, "{}", uniform.2);
+    let u = trussmesh::io::read_mesh(&d.join("u.obj")).unwrap();
+    println!("| sphere, --size 2+x, h0 0.08 | triangles | mean edge x < -0.8 | mean edge x > 0.8 | ratio (h: about 2.6) | spread of length / h | uniform triangles |");
+    println!("| | {} | {l:.4} | {r:.4} | {:.2} | {spread:.3} | {} |", m.num_cells(), r / l, u.num_cells());
+    assert!(r / l > 2.0, "edges near x = 1 are {:.2} times those near x = -1", r / l);
+    assert!(spread < 0.2, "edge length / h spreads by {spread:.3}");
+    assert!((l / 0.08 - 1.0).abs() < 0.35, "the smallest edges {l:.4} are about h0 = 0.08");
+    assert!(m.num_cells() * 3 < u.num_cells(), "{} graded vs {} uniform triangles", m.num_cells(), u.num_cells());
+    for p in &m.points {
+        let r = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        assert!((r - 1.0).abs() < 1e-6, "a vertex at radius {r}");
+    }
 }

@@ -74,7 +74,7 @@ fn one(a: &GalleryArgs, ex: &trussmesh::gallery::Example) -> Result<String, Fail
         write_output(&job, p, &done, &format!("{}: {}", ex.name, ex.title))?;
     }
     let size = parse_expr("--size", ex.size.unwrap_or("1"))?;
-    let s = compute(&done.mesh, Some((&job.domain, ex.implicit)), Some(&size))?;
+    let s = compute(&done.mesh, job.domain.expr().map(|e| (e, ex.implicit)), Some(&size))?;
     let t = s.triangles.clone().unwrap_or(super::stats::TriStats {
         q_min: 0.0,
         q_mean: 0.0,

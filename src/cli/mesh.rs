@@ -2,7 +2,7 @@
 
 use super::auto_size::{is_auto, Auto, AutoSizeArgs};
 use super::budget::{self, Budget};
-use super::sample::DomainSample;
+use super::fields::{self, Field, Field2, Field3, Placement};
 pub use super::scene::{constant, parse_expr, scene_spec, split_top, whole_number};
 use super::{kinds, output, Failure};
 use clap::{Args, ValueEnum};
@@ -12,7 +12,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-use trussmesh::expr::{Expr, ExprImplicit2, ExprImplicit3};
+use trussmesh::expr::{Expr, ExprImplicit2};
 use trussmesh::geometry::project::Projection;
 use trussmesh::geometry::{Declared, Implicit2, Implicit3};
 use trussmesh::io::{CellType, MeshData};
@@ -46,7 +46,9 @@ impl From<ProjectionArg> for Projection {
     }
 }
 
-const FLAGS: [&str; 18] = [
+const FLAGS: [&str; 20] = [
+    "origin",
+    "spacing",
     "per_radian",
     "across",
     "gradient",
@@ -78,12 +80,14 @@ pub struct MeshArgs {
     /// Dimension [default: 2].
     #[arg(long, value_name = "2|3")]
     pub dim: Option<usize>,
-    /// The domain d(x, y) < 0 (a signed distance unless --implicit), or with --dim 3 a closed
-    /// surface file (.stl .obj .ply .mesh .msh .vtu) whose inside is meshed.
+    /// The domain d(x, y) < 0 (a signed distance unless --implicit), a grid of its values (.npy
+    /// placed by --origin and --spacing, or .vti), or with --dim 3 a closed surface file (.stl
+    /// .obj .ply .mesh .msh .vtu) whose inside is meshed.
     #[arg(long, value_name = "EXPR", allow_hyphen_values = true, required_unless_present = "scene")]
     pub domain: Option<String>,
-    /// Relative size h(x, y) (only ratios matter; default uniform), or `auto`: sizes from
-    /// curvature and feature size, gradient limited, from --h0 up to --hmax.
+    /// Relative size h(x, y) (only ratios matter; default uniform), a grid of its values (.npy or
+    /// .vti, as for --domain), or `auto`: sizes from curvature and feature size, gradient
+    /// limited, from --h0 up to --hmax.
     #[arg(long, value_name = "EXPR|auto", allow_hyphen_values = true)]
     pub size: Option<String>,
     #[command(flatten)]
@@ -92,9 +96,18 @@ pub struct MeshArgs {
     #[arg(long, value_name = "H", allow_hyphen_values = true, required_unless_present = "scene")]
     pub h0: Option<String>,
     /// Bounding box: the minimum corner, then the maximum corner (required, but for a surface
-    /// file's inside, whose box is the file's own).
+    /// file's inside, whose box is the file's own, and for a grid --domain, whose box is the
+    /// grid's extent).
     #[arg(long, value_name = "X0,Y0[,Z0],X1,Y1[,Z1]", allow_hyphen_values = true)]
     pub bbox: Option<String>,
+    /// With a .npy grid as --domain or --size: the position of its first sample, a[0, 0] or
+    /// a[0, 0, 0] (the array's axes are (y, x) or (z, y, x)) [default: 0,0 or 0,0,0].
+    #[arg(long, value_name = "X,Y[,Z]", allow_hyphen_values = true)]
+    pub origin: Option<String>,
+    /// With a .npy grid as --domain or --size: the distance between neighbouring samples, the
+    /// same along every axis (required for .npy; a .vti image carries its own).
+    #[arg(long, value_name = "H", allow_hyphen_values = true)]
+    pub spacing: Option<String>,
     /// Fixed points, separated by ';'.
     #[arg(long, value_name = "x,y[,z];...", allow_hyphen_values = true)]
     pub fix: Option<String>,
@@ -147,6 +160,8 @@ pub struct Spec {
     pub auto: AutoSizeArgs,
     pub h0: String,
     pub bbox: Vec<String>,
+    /// Where .npy grids sit (--origin, --spacing).
+    pub place: Placement,
     pub fix: Vec<Vec<String>>,
     pub max_iter: Option<usize>,
     pub seed: Option<u64>,
@@ -163,8 +178,8 @@ pub struct Spec {
 /// A checked run.
 pub struct Job {
     pub dim: usize,
-    pub domain: Expr,
-    pub size: Option<Expr>,
+    pub domain: Field,
+    pub size: Option<Field>,
     /// `--size auto`.
     pub auto: Option<Auto>,
     pub h0: f64,
@@ -219,7 +234,11 @@ impl MeshArgs {
             size: self.size.clone(),
             auto: self.auto.clone(),
             h0: need(&self.h0, "h0")?,
-            bbox: split_top(&need(&self.bbox, "bbox")?, ','),
+            bbox: match (&self.bbox, &self.domain) {
+                (None, Some(d)) if fields::is_grid(d) => Vec::new(),
+                _ => split_top(&need(&self.bbox, "bbox")?, ','),
+            },
+            place: Placement { origin: self.origin.clone(), spacing: self.spacing.clone() },
             fix,
             max_iter: self.max_iter,
             seed: self.seed,
@@ -247,12 +266,17 @@ impl Spec {
         if dim != 2 && dim != 3 {
             return Err(Failure::bad(format!("--dim must be 2 or 3, not {dim}")));
         }
-        let domain = parse_expr("--domain", &self.domain)?;
+        let domain = fields::load("--domain", &self.domain, dim, &self.place)?;
         let auto_size = is_auto(self.size.as_deref());
         let size = match &self.size {
-            Some(s) if !auto_size => Some(parse_expr("--size", s)?),
+            Some(s) if !auto_size => Some(fields::load("--size", s, dim, &self.place)?),
             _ => None,
         };
+        if !(fields::is_grid(&self.domain) || self.size.as_deref().is_some_and(fields::is_grid))
+            && (self.place.origin.is_some() || self.place.spacing.is_some())
+        {
+            return Err(Failure::bad("--origin and --spacing go with a .npy grid as --domain or --size"));
+        }
         let internal = match &self.internal {
             Some(s) => Some(parse_expr("--internal", s)?),
             None => None,
@@ -283,11 +307,11 @@ impl Spec {
             return Err(Failure::bad("--internal and --metric are 2-D options (--dim 2)"));
         }
         if dim == 2 {
-            for e in
-                std::iter::once(&domain).chain(size.as_ref()).chain(internal.as_ref()).chain(metric.iter().flatten())
-            {
-                if e.uses_z() {
-                    return Err(Failure::bad(format!("{:?} uses z but --dim is 2", e.source())));
+            let fields = [&domain].into_iter().chain(size.as_ref()).map(|f| (f.source(), f.uses_z()));
+            let exprs = internal.iter().chain(metric.iter().flatten()).map(|e| (e.source(), e.uses_z()));
+            for (source, uses_z) in fields.chain(exprs) {
+                if uses_z {
+                    return Err(Failure::bad(format!("{source:?} uses z but --dim is 2")));
                 }
             }
         }
@@ -297,14 +321,18 @@ impl Spec {
         }
         let auto = self.auto.resolve(auto_size, h0)?;
         let axes = if dim == 2 { "X0,Y0,X1,Y1" } else { "X0,Y0,Z0,X1,Y1,Z1" };
-        if self.bbox.len() != 2 * dim {
+        let grid_box = domain.grid_box().filter(|_| self.bbox.is_empty());
+        if grid_box.is_none() && self.bbox.len() != 2 * dim {
             return Err(Failure::bad(format!(
                 "--bbox needs {} values for --dim {dim} ({axes}), got {}",
                 2 * dim,
                 self.bbox.len()
             )));
         }
-        let bbox = self.bbox.iter().map(|s| constant("a --bbox value", s)).collect::<Result<Vec<_>, _>>()?;
+        let bbox = match grid_box {
+            Some(b) => b,
+            None => self.bbox.iter().map(|s| constant("a --bbox value", s)).collect::<Result<Vec<_>, _>>()?,
+        };
         for k in 0..dim {
             let axis = ["x", "y", "z"][k];
             if bbox[k] >= bbox[k + dim] {
@@ -519,12 +547,12 @@ impl Job {
     /// The domain as the meshers see it.
     /// The domain, declared neither a distance nor a level set: the mesher decides from its
     /// gradient unless `--implicit` declares it a level set.
-    fn geom2(&self) -> ExprImplicit2 {
-        ExprImplicit2 { expr: self.domain.clone(), distance: false }
+    fn geom2(&self) -> Field2 {
+        Field2(self.domain.clone())
     }
 
-    fn geom3(&self) -> ExprImplicit3 {
-        ExprImplicit3 { expr: self.domain.clone(), distance: false }
+    fn geom3(&self) -> Field3 {
+        Field3(self.domain.clone())
     }
 
     /// The estimated element count of the mesher's survey (bad input fails here, before any
@@ -548,6 +576,7 @@ impl Job {
             (0..self.dim).map(|k| ((b[k + self.dim] - b[k]) / self.h0 + 1.0).ceil().clamp(8.0, cap)).product();
         let exprs: Vec<(&str, &Expr)> = std::iter::once(("--domain", &self.domain))
             .chain(self.size.as_ref().map(|e| ("--size", e)))
+            .filter_map(|(n, f)| f.expr().map(|e| (n, e)))
             .chain(self.internal.as_ref().map(|e| ("--internal", e)))
             .collect();
         let start = Instant::now();
@@ -634,68 +663,6 @@ impl Job {
             e.source(),
             if neg { "negative" } else { "non-negative" }
         )))
-    }
-
-    /// Rewrites a mesher's failure in the user's terms where its message cannot know them.
-    fn diagnose(&self, f: Failure) -> Failure {
-        if f.code != super::EXIT_BAD_INPUT {
-            return f;
-        }
-        let empty = f.message.starts_with("empty domain: no triangle of the initial mesh")
-            || f.message.contains("lattice points fall inside the domain");
-        let coplanar = f.message.contains("the points are coplanar");
-        if !(empty || coplanar) {
-            return f;
-        }
-        let s = DomainSample::new(self);
-        if s.inside == 0 {
-            return f;
-        }
-        let axes = ["x", "y", "z"];
-        // A domain thinner than h0 along an axis: no element fits across it.
-        for (k, axis) in axes.iter().enumerate().take(self.dim) {
-            let thick = s.hi[k] - s.lo[k] + s.step[k];
-            if thick < self.h0 {
-                return Failure::bad(format!(
-                    "the domain is about {} across along {}, less than h0 = {}: no {} fits across it; give an --h0 \
-                     below {}",
-                    sig(thick),
-                    axis,
-                    self.h0,
-                    if self.dim == 3 { "tetrahedron" } else { "triangle" },
-                    sig(thick / 2.0)
-                ));
-            }
-        }
-        if let Some(size) = &self.size {
-            let ratio = s.h_max / s.h_min;
-            let extent = (0..self.dim).map(|k| s.hi[k] - s.lo[k] + s.step[k]).fold(0.0f64, f64::max);
-            if ratio.is_finite() && self.h0 * ratio > extent / 2.0 {
-                let p = show_point(&s.h_max_at[..self.dim].iter().map(|&x| round_sig(x)).collect::<Vec<_>>());
-                return Failure::bad(format!(
-                    "--size {:?} grows from {} to {} inside the domain (at {p}): sizes are relative, so the elements \
-                     there would be {} x h0 = {} across, more than half the domain ({} across), and the start mesh \
-                     misses the domain; bound the size's ratio (such as min({}, R)) or lower --h0",
-                    size.source(),
-                    sig(s.h_min),
-                    sig(s.h_max),
-                    sig(ratio),
-                    sig(self.h0 * ratio),
-                    sig(extent),
-                    size.source()
-                ));
-            }
-        }
-        if empty {
-            let extent = (0..self.dim).map(|k| s.hi[k] - s.lo[k] + s.step[k]).fold(f64::INFINITY, f64::min);
-            return Failure::bad(format!(
-                "h0 = {} is too large for the domain, which is about {} across at its narrowest: give an --h0 below {}",
-                self.h0,
-                sig(extent),
-                sig(extent / 3.0)
-            ));
-        }
-        f
     }
 }
 

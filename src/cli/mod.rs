@@ -2,6 +2,8 @@
 
 mod auto_size;
 mod budget;
+mod diagnose;
+mod fields;
 pub mod fuzz;
 mod gallery;
 mod image;

@@ -47,8 +47,8 @@ pub struct SurfaceArgs {
     #[arg(long, value_name = "H", allow_hyphen_values = true)]
     pub h0: String,
     /// `auto`: sizes from curvature, h = 1/(K |kappa|) clamped to [h0, hmax], gradient limited;
-    /// with --input, a relative size h(x, y, z) instead (only ratios matter: the smallest near
-    /// the surface becomes h0) [default: uniform h0].
+    /// or a relative size h(x, y, z) (with --phi or --input; only ratios matter: the smallest
+    /// near the surface becomes h0) [default: uniform h0].
     #[arg(long, value_name = "auto|EXPR", allow_hyphen_values = true, conflicts_with = "bezier")]
     pub size: Option<String>,
     /// With --size auto: elements per radian of curvature [default: 2].
@@ -134,8 +134,12 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
         "use a larger --h0",
     )?;
     let mut opts = SurfaceOptions::uniform(h0, lo, hi);
-    if let Some(k) = curvature_k(&args)? {
-        opts = opts.with_curvature(k, args.gradient.unwrap_or(0.3), args.hmax.unwrap_or(8.0 * h0));
+    match size_rule(&args)? {
+        SizeRule::Uniform => {}
+        SizeRule::Curvature(k) => {
+            opts = opts.with_curvature(k, args.gradient.unwrap_or(0.3), args.hmax.unwrap_or(8.0 * h0));
+        }
+        SizeRule::Relative(e) => opts = opts.with_size(move |p| e.eval(p.x, p.y, p.z)),
     }
     if let Some(n) = args.max_iter {
         opts = opts.with_max_iter(n);
@@ -158,25 +162,31 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Elements per radian when the sizes come from curvature (`--size auto`, or the old
-/// `--curvature K`); the size flags without it are refused.
-fn curvature_k(args: &SurfaceArgs) -> Result<Option<f64>, Failure> {
-    let auto = match args.size.as_deref().map(str::trim) {
-        None => false,
-        Some(s) if s.eq_ignore_ascii_case("auto") => true,
-        Some(s) => {
-            return Err(Failure::bad(format!(
-                "surface --size takes auto (sizes from curvature), not {s:?}; give --h0 for uniform sizes"
-            )))
+/// The size rule of `surface --phi`.
+enum SizeRule {
+    /// h0 everywhere.
+    Uniform,
+    /// Sizes from curvature with K elements per radian (`--size auto`, or the old
+    /// `--curvature K`).
+    Curvature(f64),
+    /// A relative size expression in x, y, z (`--size EXPR`).
+    Relative(Expr),
+}
+
+/// The size rule the flags give; the flags of `--size auto` without it are refused.
+fn size_rule(args: &SurfaceArgs) -> Result<SizeRule, Failure> {
+    let auto_flags = args.per_radian.is_some() || args.gradient.is_some() || args.hmax.is_some();
+    let refuse = || Failure::bad("--per-radian, --gradient and --hmax go with --size auto (or the old --curvature K)");
+    match (args.size.as_deref().map(str::trim), args.curvature) {
+        (Some(s), _) if s.eq_ignore_ascii_case("auto") => Ok(SizeRule::Curvature(args.per_radian.unwrap_or(2.0))),
+        (Some(_), _) if auto_flags => Err(refuse()),
+        (Some(s), _) => {
+            let e = parse_expr("--size", s)?;
+            Ok(SizeRule::Relative(e))
         }
-    };
-    match (auto, args.curvature) {
-        (true, _) => Ok(Some(args.per_radian.unwrap_or(2.0))),
-        (false, Some(k)) => Ok(Some(k)),
-        (false, None) if args.per_radian.is_some() || args.gradient.is_some() || args.hmax.is_some() => {
-            Err(Failure::bad("--per-radian, --gradient and --hmax go with --size auto (or the old --curvature K)"))
-        }
-        (false, None) => Ok(None),
+        (None, Some(k)) => Ok(SizeRule::Curvature(k)),
+        (None, None) if auto_flags => Err(refuse()),
+        (None, None) => Ok(SizeRule::Uniform),
     }
 }
 

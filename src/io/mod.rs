@@ -49,6 +49,7 @@ impl MeshData {
 mod binary;
 pub mod check;
 mod glyphs;
+pub mod grid_file;
 mod json;
 pub mod measure;
 mod medit;
@@ -61,6 +62,7 @@ mod vtu;
 
 pub use binary::Encoding;
 pub use check::{check_mesh, MeshCheck, Problem, ProblemKind};
+pub use grid_file::{is_grid_file, read_grid_file, GridFile};
 pub use measure::Measure;
 pub use picture::{png_bytes, png_bytes_by, svg_bytes, svg_bytes_by, write_png, write_svg};
 
