@@ -97,16 +97,22 @@ pub(super) fn boundary_move_clear(
     if !grows {
         return true;
     }
-    // The loop from last back to first.
+    // The loop from last back to first; an edge whose box misses a new edge's box cannot meet
+    // it (exact comparisons), which spares the predicates on almost every edge.
+    let (lo_l, hi_l) = (pl.min(pos), pl.max(pos));
+    let (lo_f, hi_f) = (pf.min(pos), pf.max(pos));
+    let apart = |lo: DVec2, hi: DVec2, pa: DVec2, pb: DVec2| {
+        pa.x.max(pb.x) < lo.x || pa.x.min(pb.x) > hi.x || pa.y.max(pb.y) < lo.y || pa.y.min(pb.y) > hi.y
+    };
     let mut h = m.next(into_last);
     let mut left = m.half_edges.len();
     while m.origin(h) != first && left > 0 {
         let (a, b) = (m.origin(h), m.dest(h));
         let (pa, pb) = (m.pos(a), m.pos(b));
-        if a != last && b != last && segments_meet(pl, pos, pa, pb) {
+        if a != last && b != last && !apart(lo_l, hi_l, pa, pb) && segments_meet(pl, pos, pa, pb) {
             return false;
         }
-        if a != first && b != first && segments_meet(pos, pf, pa, pb) {
+        if a != first && b != first && !apart(lo_f, hi_f, pa, pb) && segments_meet(pos, pf, pa, pb) {
             return false;
         }
         h = m.next(h);
