@@ -12,6 +12,7 @@
 mod delaunay;
 mod disjoint_sets;
 mod embedding;
+mod fan;
 mod incidence;
 mod intersect;
 mod tet_collapse;
@@ -68,6 +69,9 @@ pub enum Refusal {
     NotConvex,
     /// The best result fails the caller's acceptance test (it would not improve the mesh).
     NotBetter,
+    /// Every element would stay positive, but a vertex fan would wind around its vertex more
+    /// than once (a fold: the mesh would cover part of the plane twice).
+    WouldFold,
 }
 
 impl std::fmt::Display for Refusal {
@@ -86,6 +90,7 @@ impl std::fmt::Display for Refusal {
             Refusal::BoundaryFace => "the face is on the boundary",
             Refusal::NotConvex => "no valid set of new elements exists (not convex)",
             Refusal::NotBetter => "the best result fails the acceptance test",
+            Refusal::WouldFold => "the result would fold a vertex fan (wind around it twice)",
         };
         f.write_str(s)
     }

@@ -304,7 +304,8 @@ impl<P: MeshPoint> TriMesh<P> {
 
     /// Checks collapsing the edge of `h`: a = origin(h) merges into b = dest(h), which moves to
     /// `pos`. Refused when it fails the link condition, would invert or degenerate a triangle,
-    /// would pinch the boundary, or a tag protects a vertex: fixed vertices never go and never
+    /// would fold a fan or cross the boundary (see `fan`), would pinch the boundary, or a tag
+    /// protects a vertex: fixed vertices never go and never
     /// move; boundary vertices go only along boundary edges into boundary or fixed vertices;
     /// internal-boundary vertices only along internal-boundary edges into the same curve.
     pub fn check_collapse(&self, h: HalfEdgeId, pos: P) -> Result<CollapsePlan<P>, Refusal> {
@@ -395,6 +396,7 @@ impl<P: MeshPoint> TriMesh<P> {
                 positive(P::orientation(pos, p1, p2))?;
             }
         }
+        self.check_move_fans(&super::fan::Move { gone: a, kept: b, pos, skip: [f1, f2] })?;
         let h_prev = if f1.is_none() { Some(self.prev(h)) } else { None };
         let t_prev = if f2.is_none() { Some(self.prev(t)) } else { None };
         Ok(CollapsePlan { h, pos, a_out, h_prev, t_prev })
@@ -571,7 +573,9 @@ impl<P: MeshPoint> TriMesh<P> {
 
     // ===================== relocation =====================
 
-    /// Checks moving `v` to `p`: fixed vertices never move; every face around `v` stays positive.
+    /// Checks moving `v` to `p`: fixed vertices never move; every face around `v` stays
+    /// positive, and no fan folds (the open fans of a boundary vertex and of its two boundary
+    /// neighbours turn by less than 2 pi; closed fans cannot fold, see `fan`).
     pub fn check_relocate(&self, v: VertexId, p: P) -> Result<(), Refusal> {
         let vx = self.vertices.get(v).ok_or(Refusal::StaleKey)?;
         if vx.tag == VertexTag::Fixed {
@@ -592,7 +596,7 @@ impl<P: MeshPoint> TriMesh<P> {
                 break;
             }
         }
-        Ok(())
+        self.check_move_fans(&super::fan::Move { gone: v, kept: v, pos: p, skip: [None, None] })
     }
 
     /// Moves `v` to `p` if allowed.

@@ -83,6 +83,23 @@ pub trait MeshPoint: Copy + PartialEq + std::fmt::Debug + Send + Sync + 'static 
     /// planar points, one winding around every vertex and an uncrossed boundary; points in
     /// space, no self-intersection (see `embedding`).
     fn embedding(m: &TriMesh<Self>) -> Result<(), super::InvariantViolation>;
+    /// Whether the fan of positive sectors (b, c) around `v` turns exactly once (`first` none:
+    /// a closed fan) or by less than 2 pi from its first ring point `first` (an open fan).
+    /// Planar points: exact (see `embedding`). Points in space have no plane to wind in and
+    /// always pass: surface meshers check folds by normals and self-intersection.
+    fn fan_winds_once(v: Self, sectors: impl Iterator<Item = (Self, Self)>, first: Option<Self>) -> bool;
+    /// Whether moving the boundary path `old` (between its boundary neighbours `first` and
+    /// `last`; `into_last` its loop half-edge into `last`) to the single point `p` keeps the new
+    /// boundary edges clear of the rest of the boundary loop. Planar points: exact (see `fan`).
+    /// Points in space pass (see [`MeshPoint::fan_winds_once`]).
+    fn boundary_move_clear(
+        m: &TriMesh<Self>,
+        old: &[VertexId],
+        p: Self,
+        first: VertexId,
+        last: VertexId,
+        into_last: HalfEdgeId,
+    ) -> bool;
 }
 
 impl MeshPoint for DVec2 {
@@ -109,6 +126,20 @@ impl MeshPoint for DVec2 {
     }
     fn embedding(m: &TriMesh<Self>) -> Result<(), super::InvariantViolation> {
         super::embedding::planar(m)
+    }
+    #[inline]
+    fn fan_winds_once(v: Self, sectors: impl Iterator<Item = (Self, Self)>, first: Option<Self>) -> bool {
+        super::embedding::fan_winds_once(v, sectors, first)
+    }
+    fn boundary_move_clear(
+        m: &TriMesh<Self>,
+        old: &[VertexId],
+        p: Self,
+        first: VertexId,
+        last: VertexId,
+        into_last: HalfEdgeId,
+    ) -> bool {
+        super::fan::boundary_move_clear(m, old, p, first, last, into_last)
     }
 }
 
@@ -142,6 +173,20 @@ impl MeshPoint for DVec3 {
     }
     fn embedding(m: &TriMesh<Self>) -> Result<(), super::InvariantViolation> {
         super::embedding::surface(m)
+    }
+    #[inline]
+    fn fan_winds_once(_: Self, _: impl Iterator<Item = (Self, Self)>, _: Option<Self>) -> bool {
+        true
+    }
+    fn boundary_move_clear(
+        _: &TriMesh<Self>,
+        _: &[VertexId],
+        _: Self,
+        _: VertexId,
+        _: VertexId,
+        _: HalfEdgeId,
+    ) -> bool {
+        true
     }
 }
 
