@@ -595,12 +595,13 @@ def mesh_2d(
     if callables:
         grid = _Grid(lo, hi, h0, grid_spacing)
     domain = grid.field(fd, _name(fd, "fd"), pfix) if _is_callable_field(fd) else fd
+    d_values = grid.last_values if _is_callable_field(fd) else None
     size_arg = grid.field(size, _name(size, "size")) if _is_callable_field(size) else size
     internal_arg = grid.field(internal, _name(internal, "internal"), pfix) if _is_callable_field(internal) else internal
     metric_arg: Any = metric
     if _is_callable_field(metric):
-        if _is_callable_field(fd):
-            m = grid.sample_on_boundary_outside(metric, _name(metric, "metric"), grid.last_values, ncomp=3)
+        if d_values is not None:
+            m = grid.sample_on_boundary_outside(metric, _name(metric, "metric"), d_values, ncomp=3)
         else:
             m = grid.sample(metric, _name(metric, "metric"), ncomp=3)
         metric_arg = tuple(_core.Sampled2(np.ascontiguousarray(m[..., k]), tuple(grid.origin), grid.spacing) for k in range(3))
@@ -664,6 +665,7 @@ def mesh_3d(
     if _is_callable_field(fd) or _is_callable_field(size):
         grid = _Grid(lo, hi, h0, grid_spacing)
     domain = grid.field(fd, _name(fd, "fd"), pfix) if _is_callable_field(fd) else fd
+    d_values = grid.last_values if _is_callable_field(fd) else None
     size_arg = grid.field(size, _name(size, "size")) if _is_callable_field(size) else size
     p, t, labels, tags, report = _core.mesh_3d(
         domain,
