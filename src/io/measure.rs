@@ -4,6 +4,11 @@
 use super::{CellType, MeshData};
 use crate::quality::{tet_dihedral_angles_deg, triangle_q_from_lengths};
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
+
+/// Cells per parallel task of the per-cell measures (each value depends on its cell alone, so
+/// the result is the same for any thread count).
+const PAR_CELLS: usize = 16_384;
 
 /// The dihedral angle of the regular tetrahedron, arccos(1/3) in degrees: the largest smallest
 /// dihedral angle a tetrahedron can have.
@@ -31,6 +36,8 @@ fn pt(m: &MeshData, i: usize) -> DVec3 {
 /// q = 2 r_in / r_out of every triangle (planar or in space).
 pub fn triangle_q_values(m: &MeshData) -> Vec<f64> {
     (0..m.num_cells())
+        .into_par_iter()
+        .with_min_len(PAR_CELLS)
         .map(|i| {
             let c = m.cell(i);
             let p = [pt(m, c[0]), pt(m, c[1]), pt(m, c[2])];
@@ -42,6 +49,8 @@ pub fn triangle_q_values(m: &MeshData) -> Vec<f64> {
 /// The radius ratio 3 r_in / r_out of every tetrahedron.
 pub fn tet_radius_ratio_values(m: &MeshData) -> Vec<f64> {
     (0..m.num_cells())
+        .into_par_iter()
+        .with_min_len(PAR_CELLS)
         .map(|i| {
             let c = m.cell(i);
             crate::quality::tet_radius_ratio([pt(m, c[0]), pt(m, c[1]), pt(m, c[2]), pt(m, c[3])])
@@ -52,6 +61,8 @@ pub fn tet_radius_ratio_values(m: &MeshData) -> Vec<f64> {
 /// The smallest dihedral angle of every tetrahedron, in degrees.
 pub fn tet_min_dihedral_values(m: &MeshData) -> Vec<f64> {
     (0..m.num_cells())
+        .into_par_iter()
+        .with_min_len(PAR_CELLS)
         .map(|i| {
             let c = m.cell(i);
             let a = tet_dihedral_angles_deg([pt(m, c[0]), pt(m, c[1]), pt(m, c[2]), pt(m, c[3])]);

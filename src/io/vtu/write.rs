@@ -33,8 +33,20 @@ impl Values<'_> {
             Values::U8(v) => v.len(),
         }
     }
+    /// Appends the values as little-endian bytes: on little-endian machines the arrays are
+    /// their own bytes (one copy at memory speed), elsewhere each number is swapped.
     fn push_le(&self, out: &mut Vec<u8>) {
         out.reserve(self.byte_len());
+        #[cfg(target_endian = "little")]
+        match self {
+            Values::F64(v) => out.extend_from_slice(bytemuck::cast_slice(v)),
+            Values::F64s(v) => out.extend_from_slice(bytemuck::cast_slice(v)),
+            Values::I64(v) => out.extend_from_slice(bytemuck::cast_slice(v)),
+            Values::I32(v) => out.extend_from_slice(bytemuck::cast_slice(v)),
+            Values::I32Owned(v) => out.extend_from_slice(bytemuck::cast_slice(v)),
+            Values::U8(v) => out.extend_from_slice(v),
+        }
+        #[cfg(not(target_endian = "little"))]
         match self {
             Values::F64(v) => v.iter().flatten().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
             Values::F64s(v) => v.iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes())),
