@@ -134,7 +134,10 @@ pub(super) fn density_control(
                 mid = q;
             }
         }
-        let split_at = if m.check_split(h, mid).is_ok() { mid } else { (a + b) * 0.5 };
+        // A boundary edge is split on its chord and the new vertex then moved onto d = 0 by
+        // the checked relocation (see [`split_boundary_at`]).
+        let boundary = m.is_boundary_edge(h);
+        let split_at = if !boundary && m.check_split(h, mid).is_ok() { mid } else { (a + b) * 0.5 };
         if let Ok(v) = m.split_edge(h, split_at) {
             ctx.report.ops.splits += 1;
             changed = true;
@@ -239,3 +242,15 @@ pub(super) fn legalize_vertex(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId
 
 /// Triangles below this quality are repaired by collapsing their shortest edge.
 pub(super) const Q_REPAIR: f64 = 0.02;
+
+/// Splits the boundary edge `h` at the point `q` off its chord (the chord's midpoint projected
+/// onto d = 0): on the chord first, then the new vertex moved to `q` by the checked
+/// relocation. A split straight at `q` checks only the orientation of its two triangles, while
+/// the move checks what an outward point can break: the open fans of the vertex and its
+/// boundary neighbours, and the new boundary edges against the rest of the loop. Returns the
+/// new vertex and whether it reached `q`.
+pub(super) fn split_boundary_at(m: &mut TriMesh<DVec2>, h: HalfEdgeId, q: DVec2) -> Option<(VertexId, bool)> {
+    let chord = (m.pos(m.origin(h)) + m.pos(m.dest(h))) * 0.5;
+    let v = m.split_edge(h, chord).ok()?;
+    Some((v, q == chord || m.relocate(v, q).is_ok()))
+}

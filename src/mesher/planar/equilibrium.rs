@@ -339,8 +339,11 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         // Step control: no triangle may invert; vertices of offending triangles step back.
         let tris = if full { None } else { Some(snap.triangles_of(&active, &mut tri_marks)) };
         snap.guard_inversions(&p, &mut newp, tris.as_deref());
+        // Without a metric, screened: only steps that could fold are checked exactly.
         if metric.is_some() {
             snap.guard_folds(&p, &mut newp);
+        } else {
+            snap.guard_folds_screened(&p, &mut newp, if full { None } else { Some(&active) });
         }
         // Boundary nodes count too once the step is taken: a node still travelling to d = 0
         // (a start cut from a previous mesh) is not settled.

@@ -276,12 +276,16 @@ pub(super) fn apply(
             Ok(m.flip(x).is_ok().then(|| vec![a, b, c, d]))
         }
         Op::Split => {
-            let mut mid = (pa + pb) * 0.5;
+            let mid = (pa + pb) * 0.5;
             if boundary {
-                match (g.project)(mid)? {
-                    Some(q) => mid = q,
-                    None => return Ok(None),
-                }
+                let Some(q) = (g.project)(mid)? else { return Ok(None) };
+                return Ok(match super::density::split_boundary_at(m, x, q) {
+                    Some((v, true)) => {
+                        m.legalize_star(v);
+                        Some(vec![v])
+                    }
+                    _ => None,
+                });
             }
             match m.split_edge(x, mid) {
                 Ok(v) => {

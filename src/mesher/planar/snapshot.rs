@@ -4,6 +4,13 @@ use super::*;
 /// many times, then stays where it was.
 const MAX_HALVINGS: u8 = 2;
 
+/// Rings around a boundary vertex whose boundary edges its own are tested against after a
+/// suspicious step (see [`Snapshot::boundary_clear`]).
+const BOUNDARY_RINGS: usize = 2;
+/// Loop edges on either side of a moved boundary vertex that its own are tested against (see
+/// [`Snapshot::loop_clear`]).
+const LOOP_REACH: usize = 4;
+
 /// Between two subdomains (an internal boundary).
 pub(super) const EDGE_INTERFACE: u8 = 2;
 
@@ -225,6 +232,198 @@ impl Snapshot {
                     newp[i] = old[i];
                     reverted += 1;
                 }
+            }
+        }
+        reverted
+    }
+
+    /// Whether the two boundary edges of boundary vertex i at positions q stay clear of the
+    /// other boundary edges within BOUNDARY_RINGS rings of it (exact segment tests): fans that
+    /// wind once can still lay one stretch of boundary over a close one (a step across a thin
+    /// notch, or two boundary nodes far closer than the size). True for interior vertices.
+    fn boundary_clear(&self, q: &[DVec2], i: usize) -> bool {
+        let (a, c) = self.loop_nbrs[i];
+        if a == u32::MAX {
+            return true;
+        }
+        let mut near: smallvec::SmallVec<[u32; 32]> = smallvec::SmallVec::new();
+        near.push(i as u32);
+        let mut from = 0;
+        for _ in 0..BOUNDARY_RINGS {
+            let to = near.len();
+            for k in from..to {
+                let v = near[k] as usize;
+                for &w in &self.adj[self.adj_start[v] as usize..self.adj_start[v + 1] as usize] {
+                    if !near.contains(&w) {
+                        near.push(w);
+                    }
+                }
+            }
+            from = to;
+        }
+        let i = i as u32;
+        for &j in &near {
+            let k = self.loop_nbrs[j as usize].1;
+            if k == u32::MAX {
+                continue;
+            }
+            for (x, y) in [(a, i), (i, c)] {
+                if j == x || j == y || k == x || k == y {
+                    continue;
+                }
+                let (px, py, pj, pk) = (q[x as usize], q[y as usize], q[j as usize], q[k as usize]);
+                if crate::topology::segments_meet(px, py, pj, pk) {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// Whether the two boundary edges of boundary vertex i at positions q stay clear of the
+    /// next LOOP_REACH edges along its loop on either side (exact segment tests): boundary
+    /// nodes projected back onto d = 0 can pass each other along the curve, and the loop then
+    /// zigzags over itself with every triangle positive and every fan winding once.
+    fn loop_clear(&self, q: &[DVec2], i: usize) -> bool {
+        let (a, c) = self.loop_nbrs[i];
+        if a == u32::MAX {
+            return true;
+        }
+        let i = i as u32;
+        let meets = |j: u32, k: u32| {
+            [(a, i), (i, c)].iter().any(|&(x, y)| {
+                j != x
+                    && j != y
+                    && k != x
+                    && k != y
+                    && crate::topology::segments_meet(q[x as usize], q[y as usize], q[j as usize], q[k as usize])
+            })
+        };
+        let (mut fwd, mut back) = (c, a);
+        for _ in 0..LOOP_REACH {
+            let next = self.loop_nbrs[fwd as usize].1;
+            let prev = self.loop_nbrs[back as usize].0;
+            if next == u32::MAX || prev == u32::MAX {
+                return true;
+            }
+            if meets(fwd, next) || meets(prev, back) {
+                return false;
+            }
+            fwd = next;
+            back = prev;
+        }
+        true
+    }
+
+    /// Step control against folds without a metric, screened: a step that keeps every
+    /// triangle positive along the whole straight path from `old` to `newp` cannot change the
+    /// winding of a closed fan (each angle at the centre stays in (0, pi) and varies
+    /// continuously, so their sum stays the same multiple of 2 pi). The path of a triangle
+    /// with old edges e1, e2 (longest edge L) whose corners move by at most delta keeps
+    /// cross(e1, e2) - 4 delta L - 4 delta^2 > 0, which the screen asks with a margin for
+    /// rounding; the corners of the triangles that fail it, and the open fans of the boundary
+    /// vertices next to a moved node, are checked exactly ([`Snapshot::winds_once`]). Nodes
+    /// around a fan that does not wind once go back to `old`, then their fans are checked in
+    /// turn (at most 8 rounds, then every moved node goes back). `nodes` lists the nodes
+    /// that may have moved (None: all). Returns how many nodes went back.
+    pub(super) fn guard_folds_screened(&self, old: &[DVec2], newp: &mut [DVec2], nodes: Option<&[u32]>) -> usize {
+        let moved: Vec<u32> = match nodes {
+            Some(list) => list.par_iter().copied().filter(|&i| newp[i as usize] != old[i as usize]).collect(),
+            None => (0..old.len() as u32).into_par_iter().filter(|&i| newp[i as usize] != old[i as usize]).collect(),
+        };
+        if moved.is_empty() {
+            return 0;
+        }
+        let on_boundary = |i: usize| self.loop_nbrs[i].0 != u32::MAX;
+        let path_positive = |t: u32| {
+            let [a, b, c] = self.tris[t as usize].map(|x| x as usize);
+            let delta = [a, b, c].iter().map(|&k| newp[k].distance(old[k])).fold(0.0, f64::max);
+            if delta == 0.0 {
+                return true;
+            }
+            let (e1, e2) = (old[b] - old[a], old[c] - old[a]);
+            let l = e1.length().max(e2.length()).max((old[c] - old[b]).length());
+            e1.perp_dot(e2) > 4.0 * delta * l * (1.0 + 1e-9) + 4.0 * delta * delta + 1e-12 * l * l
+        };
+        // The suspects, from each moved node's triangles and neighbours: the corners of
+        // triangles whose path the screen cannot clear get both exact checks (the fan and the
+        // boundary edges, tagged with the high bit), the boundary vertices next to a moved node
+        // the fan check (an open fan's turn varies continuously and is not a multiple of 2 pi).
+        const FULL: u32 = 1 << 31;
+        let found: Vec<smallvec::SmallVec<[u32; 8]>> = moved
+            .par_iter()
+            .with_min_len(CHUNK)
+            .map(|&i| {
+                let i = i as usize;
+                let mut out = smallvec::SmallVec::new();
+                if on_boundary(i) {
+                    out.push(i as u32);
+                }
+                for &j in &self.adj[self.adj_start[i] as usize..self.adj_start[i + 1] as usize] {
+                    if on_boundary(j as usize) {
+                        out.push(j);
+                    }
+                }
+                for &t in self.vt.of(i) {
+                    if !path_positive(t) {
+                        out.extend(self.tris[t as usize].iter().map(|&v| v | FULL));
+                    }
+                }
+                out
+            })
+            .collect();
+        let mut check: Vec<u32> = found.into_iter().flatten().collect();
+        // A node listed both ways keeps the full check only.
+        check.sort_unstable_by_key(|&x| (x & !FULL, std::cmp::Reverse(x & FULL)));
+        check.dedup_by_key(|x| *x & !FULL);
+        let mut reverted = 0;
+        for round in 0..8 {
+            if round > 0 {
+                check.sort_unstable();
+                check.dedup();
+            }
+            let q: &[DVec2] = newp;
+            let bad: Vec<u32> = check
+                .par_iter()
+                .copied()
+                .filter(|&x| {
+                    let i = (x & !FULL) as usize;
+                    !self.winds_once(q, i) || !self.loop_clear(q, i) || (x & FULL != 0 && !self.boundary_clear(q, i))
+                })
+                .map(|x| x & !FULL)
+                .collect();
+            if bad.is_empty() {
+                return reverted;
+            }
+            check.clear();
+            for &i in &bad {
+                let i = i as usize;
+                let ring = &self.adj[self.adj_start[i] as usize..self.adj_start[i + 1] as usize];
+                for &j in ring.iter().chain(std::iter::once(&(i as u32))) {
+                    let j = j as usize;
+                    if newp[j] != old[j] {
+                        newp[j] = old[j];
+                        reverted += 1;
+                        check.push(j as u32 | FULL);
+                        check.extend(
+                            self.adj[self.adj_start[j] as usize..self.adj_start[j + 1] as usize]
+                                .iter()
+                                .map(|&w| w | FULL),
+                        );
+                    }
+                }
+            }
+            if check.is_empty() {
+                // Every node around the bad fans is back where it was (embedded): impossible,
+                // but never loop.
+                break;
+            }
+        }
+        for &i in &moved {
+            let i = i as usize;
+            if newp[i] != old[i] {
+                newp[i] = old[i];
+                reverted += 1;
             }
         }
         reverted
