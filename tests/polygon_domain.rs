@@ -84,16 +84,18 @@ struct Row {
     bdev: f64,
     h0: f64,
     corner_err: f64,
+    /// Corners whose node is not on the mesh's boundary (the mesh closed over them).
+    buried: usize,
     area_err: f64,
     min_angle: f64,
 }
 
 const HEADER: &str =
-    "| domain | segments | corners | nodes | q min | q mean | max |d|/h0 | corner err | area err | min corner angle |";
+    "| domain | segments | corners | nodes | q min | q mean | max |d|/h0 | corner err | corners inside | area err | min corner angle |";
 
 fn print(r: &Row) {
     println!(
-        "| {} | {} | {} | {} | {:.3} | {:.4} | {:.1e} | {:.1e} | {:.3}% | {:.1} |",
+        "| {} | {} | {} | {} | {:.3} | {:.4} | {:.1e} | {:.1e} | {} | {:.3}% | {:.1} |",
         r.name,
         r.segments,
         r.corners,
@@ -102,6 +104,7 @@ fn print(r: &Row) {
         r.q_mean,
         r.bdev,
         r.corner_err,
+        r.buried,
         100.0 * r.area_err,
         r.min_angle
     );
@@ -117,6 +120,10 @@ fn try_mesh_row(name: &str, g: &Polygons2, h0: f64) -> Result<Row, Error> {
     let m = &out.mesh;
     m.validate(Level::Geometry).unwrap_or_else(|e| panic!("{name}: invalid mesh: {e}"));
     let fixed: Vec<DVec2> = m.vertices().filter(|(_, v)| v.tag == VertexTag::Fixed).map(|(_, v)| v.pos).collect();
+    let buried = m
+        .vertices()
+        .filter(|(v, x)| x.tag == VertexTag::Fixed && corners.contains(&x.pos) && !m.is_boundary_vertex(*v))
+        .count();
     let corner_err =
         corners.iter().map(|c| fixed.iter().map(|f| f.distance(*c)).fold(f64::INFINITY, f64::min)).fold(0.0, f64::max);
     Ok(Row {
@@ -129,6 +136,7 @@ fn try_mesh_row(name: &str, g: &Polygons2, h0: f64) -> Result<Row, Error> {
         bdev: boundary_deviation(m, g) / h0,
         h0,
         corner_err,
+        buried,
         area_err: (area(m) - g.area()).abs() / g.area(),
         min_angle: min_corner_angle(g),
     })
@@ -149,6 +157,7 @@ fn q_floor(min_angle_deg: f64) -> f64 {
 
 fn check_row(r: &Row, q_min: bool) {
     assert!(r.corner_err <= 1e-12, "{}: a corner {:.1e} from a fixed node", r.name, r.corner_err);
+    assert_eq!(r.buried, 0, "{}: corners inside the mesh, not on its boundary", r.name);
     // The mesher projects boundary nodes to within 1e-9 h0 (compared as it does, in length).
     assert!(
         r.bdev * r.h0 <= 1e-9 * r.h0 * (1.0 + 1e-12),
@@ -289,14 +298,71 @@ fn random_star_shaped_family() {
     }
 }
 
+/// The carving keeps no triangle over a hole's corner next to a held corner: the square with
+/// two holes as a formula, its corners found from d, has the exact area at h0 0.1 (it had
+/// 3.3985 for 3.39, a triangle closed over a corner of the first hole).
+#[test]
+fn formula_holes_keep_their_corners() {
+    use trussmesh::geometry::{difference, Rectangle};
+    let d = difference(
+        difference(Rectangle::new([-1.0, -1.0], [1.0, 1.0]), Rectangle::new([-0.8, -0.3], [-0.2, 0.3])),
+        Rectangle::new([0.25, -0.05], [0.75, 0.45]),
+    );
+    let out = mesh_2d(&d, &trussmesh::Options2::uniform(0.1, [-1.1, -1.1], [1.1, 1.1])).unwrap();
+    out.mesh.validate(Level::Geometry).unwrap();
+    let a = area(&out.mesh);
+    println!("square with two holes (formula), h0 0.1: area {a:.15}, {} corners held", out.report.feature_points);
+    assert_eq!(out.report.feature_points, 12);
+    assert!((a - 3.39).abs() < 1e-9, "area {a}");
+}
+
+/// The square with two holes over a range of h0, every check on each. At h0 0.06 the planar
+/// mesher leaves a node inside a hole next to its corner (the formula `ddiff(drectangle, ...)`
+/// with the corners it finds itself gets area 3.3914 for 3.39 there), and with the corners held
+/// exactly the finished mesh is invalid; at h0 0.09 a flat triangle lies along a side at a
+/// fixed corner (q 0), as on random star 15.
+#[test]
+#[ignore = "planar mesher: an invalid finished mesh (folded boundary vertex) at h0 0.06 and a flat triangle at a fixed corner at h0 0.09"]
+fn square_with_two_holes_at_many_sizes() {
+    let g = poly(&[square([0.0, 0.0], 1.0, true), square([-0.5, 0.0], 0.3, true), square([0.5, 0.2], 0.25, false)]);
+    println!("{HEADER}");
+    let mut failed = Vec::new();
+    for h0 in [0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.1] {
+        match try_mesh_row(&format!("two holes, h0 {h0}"), &g, h0) {
+            Ok(r) => {
+                print(&r);
+                if std::panic::catch_unwind(|| check_row(&r, true)).is_err() {
+                    failed.push(h0);
+                }
+            }
+            Err(e) => {
+                println!("| two holes, h0 {h0} | mesher error: {e} |");
+                failed.push(h0);
+            }
+        }
+    }
+    assert!(failed.is_empty(), "failed at h0 {failed:?}");
+}
+
 /// The whole family, the mesher's defects included.
 #[test]
 #[ignore = "planar mesher defects on seeds 15 (flat triangle at a fixed corner) and 18 (folded boundary vertex); the same with dpoly"]
 fn random_star_shaped_family_all() {
+    let mut failed = Vec::new();
     for seed in 0..20u64 {
         let g = poly(&[random_star(1000 + seed)]);
-        check_row(&mesh_row(&format!("random star {seed}"), &g, 0.05), true);
+        let ok = match try_mesh_row(&format!("random star {seed}"), &g, 0.05) {
+            Ok(r) => std::panic::catch_unwind(|| check_row(&r, true)).is_ok(),
+            Err(e) => {
+                println!("random star {seed}: {e}");
+                false
+            }
+        };
+        if !ok {
+            failed.push(seed);
+        }
     }
+    assert!(failed.is_empty(), "failed on seeds {failed:?}");
 }
 
 // ------------------------------------------------------------------------------------------
