@@ -69,6 +69,9 @@ pub enum Error {
     /// A triangle mesh that bounds no solid (empty, open, non-manifold, self-intersecting).
     #[error("bad surface: {0}")]
     Surface(#[from] crate::geometry::trisurf::SurfaceError),
+    /// Polylines that bound no planar domain (empty, open, too short, crossing).
+    #[error("bad polylines: {0}")]
+    Polygon(#[from] crate::geometry::polygons::PolygonError),
     /// Any other invalid option.
     #[error("invalid input: {0}")]
     Invalid(String),

@@ -81,7 +81,9 @@ pub struct MeshArgs {
     #[arg(long, value_name = "2|3")]
     pub dim: Option<usize>,
     /// The domain d(x, y) < 0 (a signed distance unless --implicit), a grid of its values (.npy
-    /// placed by --origin and --spacing, or .vti), or with --dim 3 a closed surface file (.stl
+    /// placed by --origin and --spacing, or .vti), a file of closed polylines whose inside is
+    /// meshed in 2-D (.txt .xy .dat .csv of x y lines, .obj with l records, or a planar triangle
+    /// mesh .msh .vtu .mesh whose boundary is taken), or with --dim 3 a closed surface file (.stl
     /// .obj .ply .mesh .msh .vtu) whose inside is meshed.
     #[arg(long, value_name = "EXPR", allow_hyphen_values = true, required_unless_present = "scene")]
     pub domain: Option<String>,
@@ -96,8 +98,8 @@ pub struct MeshArgs {
     #[arg(long, value_name = "H", allow_hyphen_values = true, required_unless_present = "scene")]
     pub h0: Option<String>,
     /// Bounding box: the minimum corner, then the maximum corner (required, but for a surface
-    /// file's inside, whose box is the file's own, and for a grid --domain, whose box is the
-    /// grid's extent).
+    /// or polyline file's inside, whose box is the file's own, and for a grid --domain, whose
+    /// box is the grid's extent).
     #[arg(long, value_name = "X0,Y0[,Z0],X1,Y1[,Z1]", allow_hyphen_values = true)]
     pub bbox: Option<String>,
     /// With a .npy grid as --domain or --size: the position of its first sample, a[0, 0] or
@@ -136,7 +138,8 @@ pub struct MeshArgs {
     #[arg(long)]
     pub no_sharp: bool,
     /// With a surface file as --domain: edges whose triangles' normals differ by more than DEG
-    /// degrees are sharp features, held by the mesh (default 40).
+    /// degrees are sharp features, held by the mesh (default 40); with a polyline file, points
+    /// where the polyline turns by more than DEG degrees are corners, held fixed.
     #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     pub feature_angle: Option<f64>,
     /// Output file; the extension picks the format (.json .vtu .msh .mesh .obj .stl .ply .svg .png).
@@ -733,6 +736,9 @@ pub fn write_output(job: &Job, path: &Path, done: &Meshed, title: &str) -> Resul
 
 /// `trussmesh mesh`.
 pub fn run(args: MeshArgs) -> Result<(), Failure> {
+    if let Some(file) = args.domain.as_deref().filter(|d| super::polydom::is_polyline_file(d, args.dim)) {
+        return super::polydom::run_mesh(&args, file);
+    }
     if let Some(file) = args.domain.as_deref().filter(|d| super::trisurf::is_surface_file(d)) {
         return super::trisurf::run_mesh(&args, file);
     }

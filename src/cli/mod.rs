@@ -10,6 +10,7 @@ mod image;
 mod kinds;
 mod mesh;
 mod output;
+mod polydom;
 mod remesh;
 mod sample;
 mod scene;

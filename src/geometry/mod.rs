@@ -9,6 +9,7 @@ mod decide;
 mod grid;
 mod level_set;
 pub mod levelset;
+pub mod polygons;
 mod primitives2;
 mod primitives3;
 pub mod project;
@@ -24,6 +25,7 @@ pub(crate) use decide::{decide2, decide3};
 pub use decide::{survey_gradient2, survey_gradient3, Declared, GradientSurvey};
 pub use grid::{Grid2, Grid3};
 pub use level_set::LevelSet;
+pub use polygons::Polygons2;
 pub use primitives2::{Circle, Ellipse, Polygon, Rectangle};
 pub use primitives3::{Ball, Box3, Cylinder};
 pub use project::{

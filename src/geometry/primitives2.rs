@@ -1,5 +1,6 @@
 //! Planar primitives: circle, rectangle (exact and cheap), polygon, ellipse (seed section 2.4).
 
+use super::polygons::segment::{closest_on_segment, crosses_ray};
 use super::Implicit2;
 use glam::{DMat2, DVec2};
 
@@ -144,12 +145,7 @@ impl Polygon {
         let n = self.vertices.len();
         let mut best: Option<(f64, DVec2, usize)> = None;
         for i in 0..n {
-            let a = self.vertices[i];
-            let b = self.vertices[(i + 1) % n];
-            let e = b - a;
-            let l2 = e.length_squared();
-            let t = if l2 > 0.0 { ((p - a).dot(e) / l2).clamp(0.0, 1.0) } else { 0.0 };
-            let q = a + t * e;
+            let (q, _) = closest_on_segment(p, self.vertices[i], self.vertices[(i + 1) % n]);
             let d2 = (p - q).length_squared();
             if best.is_none_or(|(bd, _, _)| d2 < bd) {
                 best = Some((d2, q, i));
@@ -157,24 +153,14 @@ impl Polygon {
         }
         best.map(|(_, q, i)| (q, i))
     }
-    /// Even-odd crossing number: a horizontal ray to +x crosses the boundary an odd number of times.
+    /// Even-odd crossing number: a horizontal ray to +x crosses the boundary an odd number of
+    /// times (exact orientation signs, as [`super::Polygons2`]).
     fn contains(&self, p: DVec2) -> bool {
         let n = self.vertices.len();
         if n < 3 {
             return false;
         }
-        let mut inside = false;
-        for i in 0..n {
-            let a = self.vertices[i];
-            let b = self.vertices[(i + 1) % n];
-            if (a.y > p.y) != (b.y > p.y) {
-                let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
-                if p.x < x {
-                    inside = !inside;
-                }
-            }
-        }
-        inside
+        (0..n).filter(|&i| crosses_ray(p, self.vertices[i], self.vertices[(i + 1) % n])).count() % 2 == 1
     }
 }
 

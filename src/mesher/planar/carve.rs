@@ -37,6 +37,9 @@ pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Resu
         })
         .collect::<Result<Vec<bool>, Error>>()?;
     let mut keep: Vec<[usize; 3]> = Vec::with_capacity(tris.len());
+    // The fixed points sorted by x, to find those in a triangle's box.
+    let mut fixed_pts: Vec<DVec2> = ctx.opts.fixed.clone();
+    fixed_pts.sort_by(|a, b| a.x.total_cmp(&b.x));
     // Labels are looked up again after the clean-up below; with one subdomain (the usual
     // case) there is nothing to look up.
     let one_label = labels.iter().all(|&l| Some(&l) == labels.first());
@@ -45,7 +48,15 @@ pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Resu
         // Around fixed points (often corners on d = 0) the centroid decides, so they stay.
         let touches_fixed = t.iter().any(|&i| fixed[i]);
         let c = (points[t[0]] + points[t[1]] + points[t[2]]) / 3.0;
-        if t.iter().all(|&i| inside[i]) || (touches_fixed && ctx.d(c)? < -ctx.geps) {
+        let all_inside = t.iter().all(|&i| inside[i]);
+        // Triangles of inside vertices over a concave corner (a hole's corner) cover the
+        // outside there; next to a fixed point on that corner they would close its fan over
+        // the hole and leave the corner inside the mesh. Dropped (as the seed drops triangles
+        // with an outside centroid), so the corner stays on the boundary.
+        if all_inside && near_fixed(&fixed_pts, [points[t[0]], points[t[1]], points[t[2]]]) && ctx.d(c)? > ctx.geps {
+            continue;
+        }
+        if all_inside || (touches_fixed && ctx.d(c)? < -ctx.geps) {
             keep.push(*t);
             if !one_label {
                 keep_label.insert(*t, label);
@@ -125,6 +136,15 @@ pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Resu
     internal::tag_interface(&mut out);
     restore_fixed(ctx, &mut out)?;
     Ok(out)
+}
+
+/// Whether a fixed point (of `sorted`, sorted by x) lies within the triangle `t`'s box grown
+/// by its longest side: the triangle is next to a held corner.
+fn near_fixed(sorted: &[DVec2], t: [DVec2; 3]) -> bool {
+    let reach = t[0].distance(t[1]).max(t[1].distance(t[2])).max(t[2].distance(t[0]));
+    let (lo, hi) = (t[0].min(t[1]).min(t[2]) - reach, t[0].max(t[1]).max(t[2]) + reach);
+    let first = sorted.partition_point(|p| p.x < lo.x);
+    sorted[first..].iter().take_while(|p| p.x <= hi.x).any(|p| p.y >= lo.y && p.y <= hi.y)
 }
 
 /// Fixed points whose triangles were all carved away go back in: inside the mesh by insertion,
