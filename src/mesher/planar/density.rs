@@ -134,10 +134,7 @@ pub(super) fn density_control(
                 mid = q;
             }
         }
-        // A boundary edge is split on its chord and the new vertex then moved onto d = 0 by
-        // the checked relocation (see [`split_boundary_at`]).
-        let boundary = m.is_boundary_edge(h);
-        let split_at = if !boundary && m.check_split(h, mid).is_ok() { mid } else { (a + b) * 0.5 };
+        let split_at = if m.check_split(h, mid).is_ok() { mid } else { (a + b) * 0.5 };
         if let Ok(v) = m.split_edge(h, split_at) {
             ctx.report.ops.splits += 1;
             changed = true;
