@@ -311,7 +311,7 @@ fn cube_keeps_edges_and_corners() {
 
 /// Boxes not aligned with the axes, circular rims and concave edges.
 #[test]
-#[ignore = "the cut of the start mesh along edges that no grid plane contains leaves triangles across them (the rotated box at h0 0.2 gets 22 patch labels for 6 faces) and the surface then intersects itself; cube-aligned edges are exact"]
+#[ignore = "not reached: the rotated box (edges in no grid plane) at h0 0.2 has 8 corners found but only one snapped node stays fixed, spurious corners appear and the held surface intersects itself (so does the smooth fallback); the cylinder passes at h0 0.2 (min angle 30.9, rims to 2.3e-12, cover 0.035 h0) but at 0.1 keeps a flat triangle and falls back; the L prism (union of two boxes) falls back at both sizes"]
 fn sharp_features_are_kept() {
     check(vec![rotated_box(), cylinder(), l_prism()], &[0.2, 0.1]);
 }

@@ -300,8 +300,45 @@ pub(super) fn imprint(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, h: f64, tol: 
             }
         }
     }
-    label(m);
+    unflatten(m);
+    label(m, phi, eps);
     Ok(true)
+}
+
+/// Flips away the flat triangles the cut leaves on an edge (three held vertices in a line): the
+/// longest side of each flips to the apex of the triangle across it.
+fn unflatten(m: &mut TriMesh<DVec3>) {
+    for _ in 0..CUT_PASSES {
+        let mut flipped = 0;
+        let faces: Vec<FaceId> = m.face_ids().collect();
+        for f in faces {
+            if !m.contains_face(f) {
+                continue;
+            }
+            let hs = m.face_half_edges(f);
+            let vs = m.face_vertices(f);
+            if vs.iter().any(|&v| m.tag(v) == VertexTag::Interior) {
+                continue;
+            }
+            let ps = vs.map(|v| m.pos(v));
+            if crate::quality::triangle_q3(ps) > 0.05 {
+                continue;
+            }
+            let longest = hs.into_iter().max_by(|&a, &b| {
+                let la = m.pos(m.origin(a)).distance(m.pos(m.dest(a)));
+                let lb = m.pos(m.origin(b)).distance(m.pos(m.dest(b)));
+                la.total_cmp(&lb)
+            });
+            if let Some(h) = longest {
+                if m.flip(h).is_ok() {
+                    flipped += 1;
+                }
+            }
+        }
+        if flipped == 0 {
+            break;
+        }
+    }
 }
 
 /// The edges that straddle a sharp edge (ends of distinct normals, not both held), each with
@@ -358,11 +395,18 @@ fn straddling(
 }
 
 /// Labels the faces by patch (flooding across every edge but those between two held vertices
-/// whose triangles turn by more than SHARP_DEG), then tags the vertices by the labels around
+/// whose triangles turn by more than SHARP_DEG, and those where grad phi at the two triangles'
+/// centroids, `eps` inside, turns by as much: a triangle left across an edge joins one side),
+/// then tags the vertices by the labels around
 /// them: one is free, two a curve vertex, three or more a corner.
-fn label(m: &mut TriMesh<DVec3>) {
+fn label(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, eps: f64) {
     let cos_max = sharp::SHARP_DEG.to_radians().cos();
     let faces: Vec<FaceId> = m.face_ids().collect();
+    let mut inner: SecondaryMap<FaceId, DVec3> = SecondaryMap::new();
+    for &f in &faces {
+        let c = m.face_vertices(f).map(|v| m.pos(v)).iter().sum::<DVec3>() / 3.0;
+        inner.insert(f, geom::normal(phi, c - face_normal(m, f) * eps));
+    }
     let mut lab: SecondaryMap<FaceId, u32> = SecondaryMap::new();
     let mut next = 0u32;
     for &f0 in &faces {
@@ -378,7 +422,7 @@ fn label(m: &mut TriMesh<DVec3>) {
                     continue;
                 }
                 let held = m.tag(m.origin(h)) != VertexTag::Interior && m.tag(m.dest(h)) != VertexTag::Interior;
-                if held && face_normal(m, f).dot(face_normal(m, g)) < cos_max {
+                if held && face_normal(m, f).dot(face_normal(m, g)) < cos_max || inner[f].dot(inner[g]) < cos_max {
                     continue;
                 }
                 lab.insert(g, next);

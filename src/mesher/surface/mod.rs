@@ -78,6 +78,11 @@ pub struct SurfaceOutput {
     pub report: Report<SurfaceQuality>,
 }
 
+/// A surface meshed with sharp features held whose worst triangle falls below this quality is
+/// meshed again without them (the hold has failed somewhere; the smooth pipeline never does
+/// worse than this on the surfaces it is tested on).
+const HELD_MIN_Q: f64 = 0.1;
+
 /// Projection tolerance, in units of the smallest size (|phi| / |grad phi|).
 const PROJECT_TOL: f64 = 1e-9;
 
@@ -85,7 +90,8 @@ const PROJECT_TOL: f64 = 1e-9;
 /// along grad phi).
 ///
 /// Sharp edges and corners of phi = 0 are found and held (`features.rs`); should holding them
-/// ever leave a surface that fails the final check, the surface is meshed again without them.
+/// ever leave a surface that fails the final check or has a triangle below quality HELD_MIN_Q,
+/// the surface is meshed again without them.
 pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
     match mesh_surface_held(phi, opts, true)? {
         Ok(out) => Ok(out),
@@ -194,6 +200,12 @@ fn mesh_surface_held(
     report.stages = Some(st);
     report.ops = counts;
     report.quality = SurfaceQuality::measure(&m, phi, &size);
+    if held && report.quality.min_q < HELD_MIN_Q {
+        return Ok(Err(Error::internal(format!(
+            "holding sharp features left a triangle of quality {:.3}",
+            report.quality.min_q
+        ))));
+    }
     report.seconds = start.elapsed().as_secs_f64();
     Ok(Ok(SurfaceOutput { mesh: m, size, report }))
 }
