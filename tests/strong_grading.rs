@@ -60,7 +60,7 @@ fn strongly_graded_remeshing_gives_valid_meshes() {
 }
 
 #[test]
-#[ignore = "open defect: with size 0.005+abs(x*y) every g gives a valid mesh with q min 0 (a 180-degree triangle, warned in the report); a check after every operation showed a vertex winding twice right after a boundary split on its chord in density control, undone later by the force loop"]
+#[ignore = "open defect: with size 0.005+abs(x*y) every g gives a valid mesh with q min 0 (a 180-degree triangle, warned in the report); a check after every operation showed a vertex winding twice right after a boundary split in density control, undone later by the force loop"]
 fn strongly_graded_remeshing_near_a_size_of_zero_slope() {
     remesh_family(&["0.005+abs(x*y)"]);
 }
