@@ -2,28 +2,10 @@
 //! forms (the ratio is the point; absolute times depend on the machine).
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use trussmesh::io::{read_mesh_bytes, write_mesh_bytes_with, write_mesh_with, CellType, Encoding, Format, MeshData};
-
-/// A planar grid of k x k squares cut in two: 2 k^2 triangles.
-fn grid(k: usize) -> MeshData {
-    let mut points = Vec::with_capacity((k + 1) * (k + 1));
-    for j in 0..=k {
-        for i in 0..=k {
-            points.push([i as f64 / k as f64 + 1e-9 * j as f64, (j as f64 / k as f64).sqrt(), 0.0]);
-        }
-    }
-    let mut cells = Vec::with_capacity(6 * k * k);
-    for j in 0..k {
-        for i in 0..k {
-            let a = j * (k + 1) + i;
-            cells.extend_from_slice(&[a, a + 1, a + k + 2, a, a + k + 2, a + k + 1]);
-        }
-    }
-    MeshData { dim: 2, cell_type: CellType::Triangle, points, cells, subdomain: None }
-}
+use trussmesh::io::{read_mesh_bytes, write_mesh_bytes_with, write_mesh_with, Encoding, Format};
 
 fn bench(c: &mut Criterion) {
-    let m = grid(708);
+    let m = trussmesh::testing::grid_mesh_data(708);
     println!("{} triangles, {} points", m.num_cells(), m.points.len());
     let dir = std::env::temp_dir().join(format!("trussmesh-bench-io-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

@@ -3,9 +3,7 @@
 //! `cargo run --release --example io_timing [K]` (a K x K grid cut into 2 K^2 triangles,
 //! K = 708 by default).
 use std::time::Instant;
-use trussmesh::io::{
-    measure::triangle_q_values, write_mesh_bytes_with, write_mesh_with, CellType, Encoding, Format, MeshData,
-};
+use trussmesh::io::{measure::triangle_q_values, write_mesh_bytes_with, write_mesh_with, Encoding, Format};
 
 fn best<T, F: FnMut() -> T>(mut f: F) -> f64 {
     let mut best = f64::INFINITY;
@@ -19,20 +17,7 @@ fn best<T, F: FnMut() -> T>(mut f: F) -> f64 {
 
 fn main() {
     let k: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(708);
-    let mut points = Vec::with_capacity((k + 1) * (k + 1));
-    for j in 0..=k {
-        for i in 0..=k {
-            points.push([i as f64 / k as f64 + 1e-9 * j as f64, (j as f64 / k as f64).sqrt(), 0.0]);
-        }
-    }
-    let mut cells = Vec::with_capacity(6 * k * k);
-    for j in 0..k {
-        for i in 0..k {
-            let a = j * (k + 1) + i;
-            cells.extend_from_slice(&[a, a + 1, a + k + 2, a, a + k + 2, a + k + 1]);
-        }
-    }
-    let m = MeshData { dim: 2, cell_type: CellType::Triangle, points, cells, subdomain: None };
+    let m = trussmesh::testing::grid_mesh_data(k);
     println!("{} triangles, {} points", m.num_cells(), m.points.len());
     println!("check        {:.4} s", best(|| m.validate().unwrap()));
     println!("node kinds   {:.4} s", best(|| m.boundary_nodes()));

@@ -112,6 +112,25 @@ pub enum Op {
     FillEar(u16),
 }
 
+/// A planar k x k grid of squares cut in two (2 k^2 triangles) as mesh file data, its rows
+/// spaced by sqrt so that the cells differ: the benches' and timing examples' large mesh.
+pub fn grid_mesh_data(k: usize) -> crate::io::MeshData {
+    let mut points = Vec::with_capacity((k + 1) * (k + 1));
+    for j in 0..=k {
+        for i in 0..=k {
+            points.push([i as f64 / k as f64 + 1e-9 * j as f64, (j as f64 / k as f64).sqrt(), 0.0]);
+        }
+    }
+    let mut cells = Vec::with_capacity(6 * k * k);
+    for j in 0..k {
+        for i in 0..k {
+            let a = j * (k + 1) + i;
+            cells.extend_from_slice(&[a, a + 1, a + k + 2, a, a + k + 2, a + k + 1]);
+        }
+    }
+    crate::io::MeshData { dim: 2, cell_type: crate::io::CellType::Triangle, points, cells, subdomain: None }
+}
+
 /// Applies one [`Op`] to a planar mesh.
 pub fn apply_op(m: &mut TriMesh<DVec2>, op: Op) -> Result<(), Refusal> {
     fn nth<T>(mut it: impl Iterator<Item = T>, len: usize, k: u16) -> Option<T> {

@@ -70,7 +70,14 @@ fn box_phi(p: DVec3, half: DVec3) -> f64 {
 
 /// The 12 edges and 8 corners of the box of half sides `half`, mapped by `r`.
 fn box_features(half: DVec3, r: DMat3) -> (Vec<Curve>, Vec<DVec3>) {
-    let corner = |i: usize| r * (half * DVec3::new(if i & 1 == 0 { -1.0 } else { 1.0 }, if i & 2 == 0 { -1.0 } else { 1.0 }, if i & 4 == 0 { -1.0 } else { 1.0 }));
+    let corner = |i: usize| {
+        r * (half
+            * DVec3::new(
+                if i & 1 == 0 { -1.0 } else { 1.0 },
+                if i & 2 == 0 { -1.0 } else { 1.0 },
+                if i & 4 == 0 { -1.0 } else { 1.0 },
+            ))
+    };
     let mut curves = Vec::new();
     for i in 0..8 {
         for bit in [1, 2, 4] {
@@ -166,7 +173,8 @@ struct Measured {
 fn measure(s: &Shape, h0: f64) -> Measured {
     let phi = &s.phi;
     let f = move |p: DVec3| phi(p);
-    let out = mesh_surface(&f, &SurfaceOptions::uniform(h0, s.bbox[0], s.bbox[1])).unwrap_or_else(|e| panic!("{}: {e}", s.name));
+    let out = mesh_surface(&f, &SurfaceOptions::uniform(h0, s.bbox[0], s.bbox[1]))
+        .unwrap_or_else(|e| panic!("{}: {e}", s.name));
     let m = &out.mesh;
     let q = &out.report.quality;
     let a = m.to_arrays();
@@ -198,8 +206,7 @@ fn measure(s: &Shape, h0: f64) -> Measured {
         .map(|p| edges.iter().map(|&e| seg_dist(p, e)).fold(f64::INFINITY, f64::min))
         .fold(0.0, f64::max)
         / h0;
-    let corners_found =
-        s.corners.iter().filter(|&&c| pts.iter().any(|&p| p.distance(c) <= 1e-9)).count();
+    let corners_found = s.corners.iter().filter(|&&c| pts.iter().any(|&p| p.distance(c) <= 1e-9)).count();
     // Chains: walks of feature edges between vertices of feature degree other than 2, and loops.
     let mut adj: HashMap<usize, Vec<usize>> = HashMap::new();
     for &(u, v) in &edges {
@@ -255,7 +262,8 @@ fn measure(s: &Shape, h0: f64) -> Measured {
 /// the table and asserts the thresholds.
 fn check(shapes: Vec<Shape>, sizes: &[f64]) {
     let only = std::env::var("SHAPE").ok();
-    let shapes: Vec<Shape> = shapes.into_iter().filter(|s| only.as_deref().is_none_or(|o| s.name.starts_with(o))).collect();
+    let shapes: Vec<Shape> =
+        shapes.into_iter().filter(|s| only.as_deref().is_none_or(|o| s.name.starts_with(o))).collect();
     let sizes: Vec<f64> = match std::env::var("H0") {
         Ok(h) => vec![h.parse().expect("H0 is a number")],
         Err(_) => sizes.to_vec(),

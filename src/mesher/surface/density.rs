@@ -3,13 +3,13 @@
 //! quality), the remeshing passes that bring the start mesh to h(x), and the regular
 //! subdivision between the levels of the coarse-to-fine start.
 
+use super::features;
 use super::geom::{faces_out, SizeField};
 use super::improve::{flip_pass, smooth_tangential, FlipGoal, FOLD_COS};
 use crate::geometry::Implicit3;
 use crate::mesher::report::OpCounts;
 use crate::mesher::truss::DensityBand;
 use crate::quality::triangle_q3;
-use super::features;
 use crate::topology::{HalfEdgeId, TriMesh, VertexId, VertexTag};
 use crate::Error;
 use glam::DVec3;

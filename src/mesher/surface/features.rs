@@ -55,7 +55,6 @@ fn face_normal(m: &TriMesh<DVec3>, f: FaceId) -> DVec3 {
     (b - a).cross(c - a).normalize_or_zero()
 }
 
-
 /// The normals of the two patches meeting at the curve vertex `v` (the mean normals of its
 /// triangles of either label), or `None` if its triangles do not carry exactly two labels.
 pub(super) fn curve_normals(m: &TriMesh<DVec3>, v: VertexId) -> Option<(DVec3, DVec3)> {
@@ -453,4 +452,3 @@ fn label(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, eps: f64) {
         m.set_tag(v, tag);
     }
 }
-
