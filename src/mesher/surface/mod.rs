@@ -28,7 +28,6 @@
 pub mod bezier;
 mod density;
 mod equilibrium;
-mod features;
 pub mod geom;
 mod improve;
 mod options;
@@ -60,7 +59,7 @@ pub mod ops {
 use crate::geometry::Implicit3;
 use crate::mesher::report::{OpCounts, Report, SurfaceStages};
 use crate::mesher::StopReason;
-use crate::topology::{TriMesh, VertexId, VertexTag};
+use crate::topology::{TriMesh, VertexId};
 use crate::Error;
 use geom::project;
 use glam::DVec3;
@@ -78,40 +77,18 @@ pub struct SurfaceOutput {
     pub report: Report<SurfaceQuality>,
 }
 
-/// A surface meshed with sharp features held whose worst triangle falls below this quality is
-/// meshed again without them (the hold has failed somewhere; the smooth pipeline never does
-/// worse than this on the surfaces it is tested on).
-const HELD_MIN_Q: f64 = 0.1;
-
 /// Projection tolerance, in units of the smallest size (|phi| / |grad phi|).
 const PROJECT_TOL: f64 = 1e-9;
 
 /// Meshes the closed surface phi = 0 inside `opts.bbox` (phi < 0 inside, so normals point
 /// along grad phi).
-///
-/// Sharp edges and corners of phi = 0 are found and held (`features.rs`); should holding them
-/// ever leave a surface that fails the final check or has a triangle below quality HELD_MIN_Q,
-/// the surface is meshed again without them.
 pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
-    match mesh_surface_held(phi, opts, true)? {
-        Ok(out) => Ok(out),
-        Err(_) => mesh_surface_held(phi, opts, false)?,
-    }
-}
-
-/// [`mesh_surface`], holding sharp features when `sharp`. The inner error is a finished surface
-/// that fails the final check with features held.
-fn mesh_surface_held(
-    phi: &dyn Implicit3,
-    opts: &SurfaceOptions,
-    sharp: bool,
-) -> Result<Result<SurfaceOutput, Error>, Error> {
     let start = std::time::Instant::now();
     opts.check()?;
     let size = opts.size_field(phi)?;
     let hmin = size.min();
     let tol = PROJECT_TOL * hmin;
-    let (mut m, levels, held) = start::start_mesh(phi, opts.bbox, hmin, tol, sharp)?;
+    let (mut m, levels) = start::start_mesh(phi, opts.bbox, hmin, tol)?;
     let mut report: Report<SurfaceQuality> = Report::default();
     let mut st = SurfaceStages::default();
     let stages = levels as usize + 3;
@@ -176,36 +153,19 @@ fn mesh_surface_held(
     // Final projection to the tight tolerance (the loop already projects every step).
     let ids: Vec<VertexId> = m.vertex_ids().collect();
     let mesh = &m;
-    let finals: Vec<DVec3> = ids
-        .par_iter()
-        .map(|&v| match mesh.tag(v) {
-            VertexTag::Interior => project(phi, mesh.pos(v), 1e-3 * tol),
-            VertexTag::InternalBoundary { .. } => {
-                let p = mesh.pos(v);
-                let q = features::held_target(mesh, phi, v, DVec3::ZERO, size.at(p), 1e-3 * tol)?;
-                Ok(q.map_or(p, |q| q.0))
-            }
-            _ => Ok(mesh.pos(v)),
-        })
-        .collect::<Result<_, Error>>()?;
+    let finals: Vec<DVec3> =
+        ids.par_iter().map(|&v| project(phi, mesh.pos(v), 1e-3 * tol)).collect::<Result<_, Error>>()?;
     for (&v, &p) in ids.iter().zip(&finals) {
         m.set_pos_unchecked(v, p);
     }
     // The promise of a level-set surface: closed, oriented, manifold, not self-intersecting.
     if let Err(e) = m.validate_closed_surface() {
-        let e = Error::broken("the finished surface is invalid", e);
-        return if held { Ok(Err(e)) } else { Err(e) };
+        return Err(Error::broken("the finished surface is invalid", e));
     }
     st.kept_iteration = kept;
     report.stages = Some(st);
     report.ops = counts;
     report.quality = SurfaceQuality::measure(&m, phi, &size);
-    if held && report.quality.min_q < HELD_MIN_Q {
-        return Ok(Err(Error::internal(format!(
-            "holding sharp features left a triangle of quality {:.3}",
-            report.quality.min_q
-        ))));
-    }
     report.seconds = start.elapsed().as_secs_f64();
-    Ok(Ok(SurfaceOutput { mesh: m, size, report }))
+    Ok(SurfaceOutput { mesh: m, size, report })
 }
