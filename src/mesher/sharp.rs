@@ -1,6 +1,13 @@
 //! The thresholds of sharp-feature detection, shared by the 2-D corner finder
 //! (`planar::features`) and the 3-D edge and corner finder (`volume::features`). Lengths are
 //! in sample spacings: the 2-D grid's spacing, or the 3-D surface start points' gap (times h).
+//! The geometric constructions on a 3-D zero set (the point where two faces' tangent planes
+//! meet, its refinement onto a curved edge, corners where three faces meet) are shared by the
+//! 3-D mesher's start and the surface mesher's feature curves.
+
+use crate::Error;
+use glam::DVec3;
+use std::collections::HashMap;
 
 /// Normals differing by more than this many degrees mark a corner or an edge.
 pub(crate) const SHARP_DEG: f64 = 40.0;
@@ -25,4 +32,136 @@ pub(crate) fn widest_split<P: Copy>(probes: &[P], dot: impl Fn(P, P) -> f64) -> 
         .flat_map(|&a| probes.iter().map(move |&b| (a, b)))
         .map(|(a, b)| (dot(a, b), a, b))
         .min_by(|x, y| x.0.total_cmp(&y.0))
+}
+
+/// The point nearest `m` on the line where the plane through `q1` with unit normal `n1` meets
+/// the plane through `q2` with unit normal `n2` (x = m + alpha n1 + beta n2 on both planes).
+/// Not finite when the planes are parallel.
+pub(crate) fn planes_meet(q1: DVec3, n1: DVec3, q2: DVec3, n2: DVec3, m: DVec3) -> DVec3 {
+    let cos = n1.dot(n2);
+    let (r1, r2) = (n1.dot(q1 - m), n2.dot(q2 - m));
+    let det = 1.0 - cos * cos;
+    m + n1 * ((r1 - cos * r2) / det) + n2 * ((r2 - cos * r1) / det)
+}
+
+/// What the feature finders ask of a geometry: the projection onto its zero set (`None` where it
+/// fails without an error) and its gradient. The 3-D mesher and the surface mesher each wrap
+/// their own projection.
+pub(crate) trait Zero {
+    /// The projection of `p` onto the zero set.
+    fn project(&self, p: DVec3) -> Result<Option<DVec3>, Error>;
+    /// The gradient at `p`.
+    fn gradient(&self, p: DVec3) -> DVec3;
+}
+
+/// One step of the construction that puts a point on an edge where two faces meet: a point of
+/// each face `delta` from `x` across the edge (of the two ways, the one whose normal, taken a
+/// little inside, stays with the face), the point of both faces' tangent planes there nearest
+/// `x`, projected onto the zero set. Returns the new point and the two faces' normals, or
+/// `None` when a face is not found or the planes are nearly parallel.
+pub(crate) fn crease_step(
+    g: &dyn Zero,
+    x: DVec3,
+    a: DVec3,
+    b: DVec3,
+    delta: f64,
+) -> Result<Option<(DVec3, DVec3, DVec3)>, Error> {
+    let face = |n: DVec3, other: DVec3| -> Result<Option<(DVec3, DVec3)>, Error> {
+        let Some(across) = (other - n * n.dot(other)).try_normalize() else { return Ok(None) };
+        let mut best: Option<(f64, DVec3, DVec3)> = None;
+        for dir in [across, -across] {
+            if let Some(q) = g.project(x + dir * delta)? {
+                let m = g.gradient(q - n * (1e-3 * delta)).normalize_or_zero();
+                if m.length_squared() > 0.5 && best.is_none_or(|(c, _, _)| m.dot(n) > c) {
+                    best = Some((m.dot(n), q, m));
+                }
+            }
+        }
+        Ok(best.map(|(_, q, m)| (q, m)))
+    };
+    let (Some((q1, m1)), Some((q2, m2))) = (face(a, b)?, face(b, a)?) else { return Ok(None) };
+    if 1.0 - m1.dot(m2).powi(2) < 1e-6 {
+        return Ok(None);
+    }
+    let y = planes_meet(q1, m1, q2, m2, x);
+    Ok(g.project(y)?.map(|y| (y, m1, m2)))
+}
+
+/// Moves the edge point `p` (faces of normals `n1`, `n2`) to the point nearest it on the line
+/// where the faces' tangent planes meet, the planes taken at points of each face ever closer to
+/// it (from a tenth of `s` down by ten each, REFINE_STEPS steps of [`crease_step`]): exact
+/// already for planar faces; on a curved edge (a cylinder's rim) the error falls with the
+/// square of the distance.
+pub(crate) fn refine_edge_point(g: &dyn Zero, p: DVec3, n1: DVec3, n2: DVec3, s: f64) -> Result<DVec3, Error> {
+    let (mut x, mut a, mut b) = (p, n1, n2);
+    let mut delta = 0.1 * s;
+    for _ in 0..REFINE_STEPS {
+        let Some((y, m1, m2)) = crease_step(g, x, a, b, delta)? else { break };
+        if y.distance(x) > 2.0 * delta {
+            break;
+        }
+        (x, a, b) = (y, m1, m2);
+        delta *= 0.1;
+    }
+    Ok(x)
+}
+
+/// Corners where three faces meet, from points on edges (`found`, each with the normals of its
+/// two faces, in cells of side `gap`; `limits(p)` is how far apart two of them may be and how far
+/// the projection may move a corner): two such points within reach whose faces bring a third
+/// normal (more than SHARP_DEG from both of the first point's) meet at the point of all three
+/// tangent planes, kept when its projection onto the zero set moves it by at most the limit.
+pub(crate) fn corner_points(
+    g: &dyn Zero,
+    found: &[(DVec3, DVec3, DVec3)],
+    gap: f64,
+    limits: &dyn Fn(DVec3) -> Result<(f64, f64), Error>,
+) -> Result<Vec<DVec3>, Error> {
+    let cos_max = SHARP_DEG.to_radians().cos();
+    let cell = |p: DVec3| (p / gap).floor().as_i64vec3().to_array();
+    let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
+    for (k, f) in found.iter().enumerate() {
+        cells.entry(cell(f.0)).or_default().push(k);
+    }
+    let distinct = |n: DVec3, m: DVec3| {
+        let c = n.dot(m);
+        c < cos_max && c > -cos_max
+    };
+    let mut corners = Vec::new();
+    for (k, &(pa, a1, a2)) in found.iter().enumerate() {
+        let (reach, tol) = limits(pa)?;
+        let span = (reach / gap).ceil() as i64;
+        let c = cell(pa);
+        for dz in -span..=span {
+            for dy in -span..=span {
+                for dx in -span..=span {
+                    let Some(list) = cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else { continue };
+                    for &j in list {
+                        let (pb, b1, b2) = found[j];
+                        if j <= k || pb.distance(pa) > reach {
+                            continue;
+                        }
+                        for nb in [b1, b2] {
+                            if !distinct(nb, a1) || !distinct(nb, a2) {
+                                continue;
+                            }
+                            let m = glam::DMat3::from_cols(a1, a2, nb).transpose();
+                            if m.determinant().abs() < 0.1 {
+                                continue;
+                            }
+                            let x = m.inverse() * DVec3::new(a1.dot(pa), a2.dot(pa), nb.dot(pb));
+                            if !x.is_finite() || x.distance(pa) > reach {
+                                continue;
+                            }
+                            let Some(p) = g.project(x)? else { continue };
+                            if p.distance(x) <= tol {
+                                corners.push(p);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok(corners)
 }

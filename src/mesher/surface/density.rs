@@ -3,13 +3,14 @@
 //! quality), the remeshing passes that bring the start mesh to h(x), and the regular
 //! subdivision between the levels of the coarse-to-fine start.
 
-use super::geom::{faces_out, project, SizeField};
+use super::features;
+use super::geom::{faces_out, SizeField};
 use super::improve::{flip_pass, smooth_tangential, FlipGoal, FOLD_COS};
 use crate::geometry::Implicit3;
 use crate::mesher::report::OpCounts;
 use crate::mesher::truss::DensityBand;
 use crate::quality::triangle_q3;
-use crate::topology::{HalfEdgeId, TriMesh, VertexId};
+use crate::topology::{HalfEdgeId, TriMesh, VertexId, VertexTag};
 use crate::Error;
 use glam::DVec3;
 use slotmap::SecondaryMap;
@@ -98,18 +99,18 @@ pub fn apply_band(
     min_q: f64,
     tol: f64,
 ) -> Result<(usize, usize), Error> {
-    let splits = each_edge(m, size, |m, h, len, mid, hm| {
+    let splits = each_edge(m, size, |m, h, len, _mid, hm| {
         if len <= band.split_above * hm {
             return Ok(false);
         }
-        let p = project(phi, mid, tol)?;
-        Ok(m.split_edge(h, p).is_ok())
+        let Some(p) = features::split_point(m, phi, h, hm, tol)? else { return Ok(false) };
+        Ok(features::split(m, h, p).is_some())
     })?;
-    let collapses = each_edge(m, size, |m, h, len, mid, hm| {
+    let collapses = each_edge(m, size, |m, h, len, _mid, hm| {
         if len >= band.collapse_below * hm || m.num_vertices() <= 4 {
             return Ok(false);
         }
-        let p = project(phi, mid, tol)?;
+        let Some((h, p)) = features::collapse_choice(m, phi, h, hm, tol)? else { return Ok(false) };
         let (tris, ring) = collapse_ring(m, h, p);
         let hp = size.at(p);
         if ring.iter().any(|&r| r.distance(p) > band.split_above * hp) {
@@ -163,7 +164,8 @@ pub(super) fn density_control(
 /// first vertex there, so that neighbours sit near each other in the arenas. Meshes grown by
 /// splits and subdivision scatter them, and every sweep then waits on cache misses.
 pub fn relayout(m: &TriMesh<DVec3>) -> Result<TriMesh<DVec3>, Error> {
-    let crate::topology::MeshArrays { points, cells: tris, .. } = m.to_arrays();
+    let crate::topology::MeshArrays { points, cells: tris, labels, keys } = m.to_arrays();
+    let tags: Vec<VertexTag> = keys.iter().map(|&v| m.tag(v)).collect();
     let order = crate::topology::hilbert_sort_3d(&points);
     let mut rank = vec![0usize; points.len()];
     for (r, &i) in order.iter().enumerate() {
@@ -172,8 +174,25 @@ pub fn relayout(m: &TriMesh<DVec3>) -> Result<TriMesh<DVec3>, Error> {
     let pts: Vec<DVec3> = order.iter().map(|&i| points[i]).collect();
     let mut faces: Vec<[usize; 3]> = tris.iter().map(|t| [rank[t[0]], rank[t[1]], rank[t[2]]]).collect();
     faces.sort_by_key(|t| (t[0].min(t[1]).min(t[2]), t[0], t[1], t[2]));
-    let (out, _) = TriMesh::from_arrays(&pts, &faces)
+    let labels: Vec<u32> = {
+        // The same order as the faces: by first vertex, then the rest.
+        let mut keyed: Vec<([usize; 3], u32)> =
+            tris.iter().zip(&labels).map(|(t, &lab)| ([rank[t[0]], rank[t[1]], rank[t[2]]], lab)).collect();
+        keyed.sort_by_key(|(t, _)| (t[0].min(t[1]).min(t[2]), t[0], t[1], t[2]));
+        keyed.into_iter().map(|(_, lab)| lab).collect()
+    };
+    let (mut out, ids) = TriMesh::from_arrays(&pts, &faces)
         .map_err(|e| Error::internal(format!("rebuilding a valid surface mesh failed: {e}")))?;
+    // Labels and tags carry the sharp features: kept with their faces and vertices.
+    if labels.iter().any(|&l| l != 0) || tags.iter().any(|&t| t != VertexTag::Interior) {
+        let fids: Vec<crate::topology::FaceId> = out.face_ids().collect();
+        for (f, &l) in fids.iter().zip(&labels) {
+            out.set_label(*f, l);
+        }
+        for (r, &i) in order.iter().enumerate() {
+            out.set_tag(ids[r], tags[i]);
+        }
+    }
     Ok(out)
 }
 
@@ -190,8 +209,9 @@ pub fn subdivide(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, tol: f64) -> Resul
     for e in edge_list(m) {
         let Some(h) = edge_now(m, e) else { continue };
         let (a, b) = (e.1, e.2);
-        let p = project(phi, 0.5 * (m.pos(a) + m.pos(b)), tol)?;
-        if let Ok(v) = m.split_edge(h, p) {
+        let s = m.pos(a).distance(m.pos(b));
+        let Some(p) = features::split_point(m, phi, h, s, tol)? else { continue };
+        if let Some(v) = features::split(m, h, p) {
             parent.insert(v, (a, b));
             n += 1;
         }

@@ -3,13 +3,14 @@
 //! density control with hysteresis; it keeps the best mesh seen by a quality score.
 
 use super::density::density_control;
+use super::features;
 use super::geom::{self, normal, SizeField};
 use super::improve::{flip_pass, move_if_no_fold_g, try_flip, FlipGoal};
 use super::options::SurfaceOptions;
 use crate::geometry::Implicit3;
 use crate::mesher::report::OpCounts;
 use crate::mesher::truss::{self, backtrack, bar_force, RestScale};
-use crate::topology::{FaceId, TriMesh, VertexId};
+use crate::topology::{FaceId, TriMesh, VertexId, VertexTag};
 use crate::Error;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -194,19 +195,34 @@ fn force_step(
         force[b as usize] -= f;
     }
     // Normals and projections depend on the positions before the step only: in parallel.
-    let moves: Vec<(DVec3, DVec3)> = pos
+    let mesh = &*m;
+    let moves: Vec<Option<(DVec3, DVec3)>> = pos
         .par_iter()
         .zip(&force)
-        .map(|(&p, &fi)| {
+        .zip(&ids)
+        .map(|((&p, &fi), &v)| {
+            if mesh.tag(v) != VertexTag::Interior {
+                // Along the feature curve only; corners stay.
+                return features::held_target(mesh, phi, v, opts.deltat * fi, size.at(p), tol);
+            }
             let n = normal(phi, p);
             let f = fi - fi.dot(n) * n;
-            geom::project_grad(phi, p + opts.deltat * f, tol)
+            geom::project_grad(phi, p + opts.deltat * f, tol).map(Some)
         })
         .collect::<Result<_, Error>>()?;
     let mut moved = 0.0f64;
     for (i, &v) in ids.iter().enumerate() {
         let p = pos[i];
-        let (q, g) = moves[i];
+        let Some((q, g)) = moves[i] else { continue };
+        if m.tag(v) != VertexTag::Interior {
+            // A step along a curved feature is not a straight segment: taken whole or not.
+            if move_if_no_fold_g(m, v, q, g) {
+                moved = moved.max(q.distance(p) / size.at(p));
+            } else {
+                *undone += 1;
+            }
+            continue;
+        }
         match backtrack(p, q, 0, |y| Ok::<bool, Error>(move_if_no_fold_g(m, v, y, g)))? {
             Some(y) => moved = moved.max(y.distance(p) / size.at(p)),
             None => *undone += 1,

@@ -3,11 +3,12 @@
 //! they share with the force iteration.
 
 use super::density::{edge_list, edge_now};
+use super::features;
 use super::geom::{faces_out, project_grad, SizeField};
 use crate::geometry::Implicit3;
 use crate::predicates::{orient3d_dir, Sign};
 use crate::quality::triangle_q3;
-use crate::topology::{HalfEdgeId, TriMesh, VertexId};
+use crate::topology::{HalfEdgeId, TriMesh, VertexId, VertexTag};
 use crate::Error;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -131,19 +132,31 @@ pub fn smooth_tangential(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, lambda: f6
     // parallel, then applied in arena order.
     let ids: Vec<VertexId> = m.vertex_ids().collect();
     let mesh = &*m;
-    let moves: Vec<(DVec3, DVec3)> = ids
+    let moves: Vec<Option<(DVec3, DVec3)>> = ids
         .par_iter()
         .map(|&v| {
             let p = mesh.pos(v);
+            if mesh.tag(v) != VertexTag::Interior {
+                // Along the curve, toward the middle of its two neighbours on it.
+                let nb = features::curve_neighbours(mesh, v);
+                if nb.len() != 2 {
+                    return Ok(None);
+                }
+                let c = 0.5 * (mesh.pos(nb[0]) + mesh.pos(nb[1]));
+                let s = p.distance(c).max(mesh.pos(nb[0]).distance(mesh.pos(nb[1])));
+                return features::held_target(mesh, phi, v, lambda * (c - p), s, tol);
+            }
             let nb = mesh.neighbours(v);
             let c = nb.iter().map(|&w| mesh.pos(w)).sum::<DVec3>() / nb.len().max(1) as f64;
             let n = super::geom::normal(phi, p);
             let d = c - p;
-            project_grad(phi, p + lambda * (d - d.dot(n) * n), tol)
+            project_grad(phi, p + lambda * (d - d.dot(n) * n), tol).map(Some)
         })
         .collect::<Result<_, Error>>()?;
-    for (&v, &(p, g)) in ids.iter().zip(&moves) {
-        move_if_no_fold_g(m, v, p, g);
+    for (&v, mv) in ids.iter().zip(&moves) {
+        if let Some((p, g)) = *mv {
+            move_if_no_fold_g(m, v, p, g);
+        }
     }
     Ok(())
 }
@@ -202,6 +215,17 @@ pub fn equalize_lengths(
     let mut largest = 0.0f64;
     for (&v, &n) in ids.iter().zip(&normals) {
         let p = m.pos(v);
+        if m.tag(v) != VertexTag::Interior {
+            if let Some(step) = held_step(m, v, size, scale) {
+                let h = size.at(p);
+                if let Some((target, g)) = features::held_target(m, phi, v, step, h, tol)? {
+                    if move_if_no_fold_g(m, v, target, g) {
+                        largest = largest.max(target.distance(p) / h);
+                    }
+                }
+            }
+            continue;
+        }
         let mut a = DMat3::from_cols(n * n.x, n * n.y, n * n.z);
         let mut rhs = DVec3::ZERO;
         for w in m.neighbours(v) {
@@ -231,6 +255,33 @@ pub fn equalize_lengths(
         }
     }
     Ok(largest)
+}
+
+/// The Gauss-Newton step of [`equalize_lengths`] for a vertex on a feature curve: along the
+/// curve's tangent only, toward the lengths of its two feature edges, limited to a fifth of h.
+fn held_step(m: &TriMesh<DVec3>, v: VertexId, size: &SizeField, scale: f64) -> Option<DVec3> {
+    let (n1, n2) = features::curve_normals(m, v)?;
+    let t = n1.cross(n2).try_normalize()?;
+    let p = m.pos(v);
+    let (mut a, mut rhs) = (0.0, 0.0);
+    for w in features::curve_neighbours(m, v) {
+        let q = m.pos(w);
+        let d = p - q;
+        let l = d.length();
+        if l == 0.0 {
+            continue;
+        }
+        let u = (d / l).dot(t);
+        a += u * u;
+        rhs -= (l - scale * size.at(0.5 * (p + q))) * u;
+    }
+    if a < 1e-6 {
+        return None;
+    }
+    let mut step = rhs / a;
+    let h = size.at(p);
+    step = step.clamp(-0.2 * h, 0.2 * h);
+    Some(step * t)
 }
 
 /// sum(L h) / sum(h^2): the scale that best fits the edge lengths L to the sizes h.

@@ -28,6 +28,7 @@
 pub mod bezier;
 mod density;
 mod equilibrium;
+mod features;
 pub mod geom;
 mod improve;
 mod options;
@@ -59,7 +60,7 @@ pub mod ops {
 use crate::geometry::Implicit3;
 use crate::mesher::report::{OpCounts, Report, SurfaceStages};
 use crate::mesher::StopReason;
-use crate::topology::{TriMesh, VertexId};
+use crate::topology::{TriMesh, VertexId, VertexTag};
 use crate::Error;
 use geom::project;
 use glam::DVec3;
@@ -77,18 +78,52 @@ pub struct SurfaceOutput {
     pub report: Report<SurfaceQuality>,
 }
 
+/// A surface meshed with sharp features held whose worst triangle falls below this quality is
+/// meshed again without them (the hold has failed somewhere; the smooth pipeline never does
+/// worse than this on the surfaces it is tested on).
+const HELD_MIN_Q: f64 = 0.1;
+
+/// A surface meshed with sharp features held whose vertex count passes this many times the
+/// start's is meshed again without them: the start is made at the target size, so a hold that
+/// keeps splitting has failed (the flat ellipsoid x^2 + y^2 + (z/0.001)^2 - 1 at h0 0.1
+/// quadrupled its vertices every remeshing pass, 1,286 to 359,318 in ten).
+const HELD_GROWTH: usize = 4;
+
+/// The error that sends a runaway held surface back to the smooth pipeline.
+fn held_runaway(start: usize, now: usize) -> Error {
+    Error::internal(format!("holding sharp features made the surface grow from {start} to {now} vertices"))
+}
+
 /// Projection tolerance, in units of the smallest size (|phi| / |grad phi|).
 const PROJECT_TOL: f64 = 1e-9;
 
 /// Meshes the closed surface phi = 0 inside `opts.bbox` (phi < 0 inside, so normals point
 /// along grad phi).
+///
+/// Sharp edges and corners of phi = 0 are found and held (`features.rs`); should holding them
+/// ever leave a surface that fails the final check or has a triangle below quality HELD_MIN_Q,
+/// the surface is meshed again without them.
 pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
+    match mesh_surface_held(phi, opts, true)? {
+        Ok(out) => Ok(out),
+        Err(_) => mesh_surface_held(phi, opts, false)?,
+    }
+}
+
+/// [`mesh_surface`], holding sharp features when `sharp`. The inner error is a finished surface
+/// that fails the final check with features held.
+fn mesh_surface_held(
+    phi: &dyn Implicit3,
+    opts: &SurfaceOptions,
+    sharp: bool,
+) -> Result<Result<SurfaceOutput, Error>, Error> {
     let start = std::time::Instant::now();
     opts.check()?;
     let size = opts.size_field(phi)?;
     let hmin = size.min();
     let tol = PROJECT_TOL * hmin;
-    let (mut m, levels) = start::start_mesh(phi, opts.bbox, hmin, tol)?;
+    let (mut m, levels, held) = start::start_mesh(phi, opts.bbox, hmin, tol, sharp)?;
+    let start_vertices = m.num_vertices();
     let mut report: Report<SurfaceQuality> = Report::default();
     let mut st = SurfaceStages::default();
     let stages = levels as usize + 3;
@@ -119,6 +154,9 @@ pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<Surfac
         for _ in 0..passes {
             density::remesh_pass(&mut m, phi, &level_size, tol, &mut counts)?;
             st.remesh_passes += 1;
+            if held && m.num_vertices() > HELD_GROWTH * start_vertices + 1000 {
+                return Ok(Err(held_runaway(start_vertices, m.num_vertices())));
+            }
         }
         counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
         lap(&mut st, 1);
@@ -126,6 +164,9 @@ pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<Surfac
         let run = equilibrium::force_loop(m, phi, &level_size, opts, tol, patience, &mut counts)?;
         m = run.mesh;
         counts.undone += run.undone;
+        if held && m.num_vertices() > HELD_GROWTH * start_vertices + 1000 {
+            return Ok(Err(held_runaway(start_vertices, m.num_vertices())));
+        }
         if level == 0 {
             let stop = if run.converged {
                 StopReason::AtRest { dptol: opts.dptol }
@@ -153,19 +194,36 @@ pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<Surfac
     // Final projection to the tight tolerance (the loop already projects every step).
     let ids: Vec<VertexId> = m.vertex_ids().collect();
     let mesh = &m;
-    let finals: Vec<DVec3> =
-        ids.par_iter().map(|&v| project(phi, mesh.pos(v), 1e-3 * tol)).collect::<Result<_, Error>>()?;
+    let finals: Vec<DVec3> = ids
+        .par_iter()
+        .map(|&v| match mesh.tag(v) {
+            VertexTag::Interior => project(phi, mesh.pos(v), 1e-3 * tol),
+            VertexTag::InternalBoundary { .. } => {
+                let p = mesh.pos(v);
+                let q = features::held_target(mesh, phi, v, DVec3::ZERO, size.at(p), 1e-3 * tol)?;
+                Ok(q.map_or(p, |q| q.0))
+            }
+            _ => Ok(mesh.pos(v)),
+        })
+        .collect::<Result<_, Error>>()?;
     for (&v, &p) in ids.iter().zip(&finals) {
         m.set_pos_unchecked(v, p);
     }
     // The promise of a level-set surface: closed, oriented, manifold, not self-intersecting.
     if let Err(e) = m.validate_closed_surface() {
-        return Err(Error::broken("the finished surface is invalid", e));
+        let e = Error::broken("the finished surface is invalid", e);
+        return if held { Ok(Err(e)) } else { Err(e) };
     }
     st.kept_iteration = kept;
     report.stages = Some(st);
     report.ops = counts;
     report.quality = SurfaceQuality::measure(&m, phi, &size);
+    if held && report.quality.min_q < HELD_MIN_Q {
+        return Ok(Err(Error::internal(format!(
+            "holding sharp features left a triangle of quality {:.3}",
+            report.quality.min_q
+        ))));
+    }
     report.seconds = start.elapsed().as_secs_f64();
-    Ok(SurfaceOutput { mesh: m, size, report })
+    Ok(Ok(SurfaceOutput { mesh: m, size, report }))
 }

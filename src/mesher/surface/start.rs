@@ -179,14 +179,16 @@ pub fn components(n: usize, tris: &[[usize; 3]]) -> usize {
     (0..n).filter(|&i| sets.root(i) == i).count()
 }
 
-/// The start mesh for the smallest size `hmin`, its nodes projected onto phi = 0 to `tol`, and
-/// its level k: it was made at 2^k hmin, and the pipeline subdivides it k times.
+/// The start mesh for the smallest size `hmin`, its nodes projected onto phi = 0 to `tol`, its
+/// level k (it was made at 2^k hmin, and the pipeline subdivides it k times), and whether it
+/// holds sharp features (looked for when `sharp`; a mesh holding them is not subdivided).
 pub(super) fn start_mesh(
     phi: &dyn Implicit3,
     bbox: [DVec3; 2],
     hmin: f64,
     tol: f64,
-) -> Result<(TriMesh<DVec3>, u32), Error> {
+    sharp: bool,
+) -> Result<(TriMesh<DVec3>, u32, bool), Error> {
     // The reference marching fixes the topology; the start mesh is made at the coarsest level
     // 2^k h with the same Euler characteristic and component count, then subdivided k times,
     // so that the fine mesh has only the coarse mesh's irregular vertices. The reference is the
@@ -210,6 +212,12 @@ pub(super) fn start_mesh(
         (chi, components(mc.points.len(), &mc.triangles))
     };
     let want = signature(&fine);
+    // Sharp edges are cut into the reference level itself (a coarser level would round them
+    // before they are found); a surface without them takes the coarse-to-fine start.
+    let mut m = welded(phi, &fine, tol)?;
+    if sharp && super::features::imprint(&mut m, phi, hmin * (1u32 << reference) as f64, tol)? {
+        return Ok((m, reference, true));
+    }
     // The coarse level must still follow the surface: at most MAX_TURN radians per edge.
     let curvatures: Vec<f64> = fine
         .points
@@ -233,6 +241,14 @@ pub(super) fn start_mesh(
             }
         }
     }
+    if levels == reference {
+        return Ok((m, levels, false));
+    }
+    Ok((welded(phi, &marched, tol)?, levels, false))
+}
+
+/// The marched soup welded into the engine, its nodes projected onto phi = 0 to `tol`.
+fn welded(phi: &dyn Implicit3, marched: &Marched, tol: f64) -> Result<TriMesh<DVec3>, Error> {
     let (mut m, _) = TriMesh::from_arrays(&marched.points, &marched.triangles)
         .map_err(|e| Error::internal(format!("marching tetrahedra made an invalid mesh: {e}")))?;
     let ids: Vec<VertexId> = m.vertex_ids().collect();
@@ -240,5 +256,5 @@ pub(super) fn start_mesh(
         let p = project(phi, m.pos(v), tol)?;
         move_if_no_fold(&mut m, phi, v, p);
     }
-    Ok((m, levels))
+    Ok(m)
 }

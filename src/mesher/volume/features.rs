@@ -20,7 +20,7 @@ const RR_SHARP: f64 = 30.0;
 /// degrees straddle an edge: the point of the line where their tangent planes meet nearest to
 /// their midpoint, projected onto d = 0, is on it (exactly for planar faces). A surface point
 /// whose normals differ on either side of it lies on an edge itself. The corners where three
-/// faces meet ([`corner_points`]) and then these points are thinned greedily, in the start's
+/// faces meet (`sharp::corner_points`) and then these points are thinned greedily, in the start's
 /// lattice order, to sharp::SPACING target lengths apart and kept clear of the user's fixed
 /// points.
 pub(super) fn crease_points(
@@ -77,11 +77,8 @@ pub(super) fn crease_points(
                             if cos > cos_max || cos < -cos_max {
                                 continue;
                             }
-                            // x = m + alpha n1 + beta n2 on both tangent planes.
                             let m = (q1 + q2) * 0.5;
-                            let (r1, r2) = (n1.dot(q1 - m), n2.dot(q2 - m));
-                            let det = 1.0 - cos * cos;
-                            let x = m + n1 * ((r1 - cos * r2) / det) + n2 * ((r2 - cos * r1) / det);
+                            let x = sharp::planes_meet(q1, n1, q2, n2, m);
                             if x.distance(m) > reach {
                                 continue;
                             }
@@ -95,7 +92,11 @@ pub(super) fn crease_points(
             }
         }
     }
-    let corners = corner_points(ctx, &found, gap, cos_max)?;
+    let limits = |p: DVec3| -> Result<(f64, f64), Error> {
+        let h = if uniform { 1.0 } else { ctx.h(p)? };
+        Ok((sharp::REACH * gap * h, sharp::TOL * gap * h))
+    };
+    let corners = sharp::corner_points(ctx, &found, gap, &limits)?;
     let n_corners = corners.len();
     let mut kept: Vec<DVec3> = Vec::new();
     let candidates = corners.into_iter().map(|p| (p, None)).chain(found.into_iter().map(|f| (f.0, Some((f.1, f.2)))));
@@ -109,109 +110,12 @@ pub(super) fn crease_points(
             continue;
         }
         let p = match faces {
-            Some((n1, n2)) if k >= n_corners => refine_edge_point(ctx, p, n1, n2, gap * h)?,
+            Some((n1, n2)) if k >= n_corners => sharp::refine_edge_point(ctx, p, n1, n2, gap * h)?,
             _ => p,
         };
         kept.push(p);
     }
     Ok(kept)
-}
-
-/// Moves the edge point `p` (faces of normals `n1`, `n2`) to the point nearest it on the line
-/// where the faces' tangent planes meet, the planes taken at points of each face ever closer to
-/// it (from a tenth of `s` down by ten each, sharp::REFINE_STEPS steps): exact already for planar
-/// faces; on a curved edge (a cylinder's rim) the error falls with the square of the distance.
-fn refine_edge_point(ctx: &Ctx, p: DVec3, n1: DVec3, n2: DVec3, s: f64) -> Result<DVec3, Error> {
-    let (mut x, mut a, mut b) = (p, n1, n2);
-    let mut delta = 0.1 * s;
-    for _ in 0..sharp::REFINE_STEPS {
-        // A point of each face, delta from the edge across it: of the two ways, the one whose
-        // normal (taken a little inside) stays with the face.
-        let face = |n: DVec3, other: DVec3| -> Result<Option<(DVec3, DVec3)>, Error> {
-            let Some(across) = (other - n * n.dot(other)).try_normalize() else { return Ok(None) };
-            let mut best: Option<(f64, DVec3, DVec3)> = None;
-            for dir in [across, -across] {
-                if let Some(q) = ctx.project(x + dir * delta)? {
-                    let m = ctx.domain.gradient(q - n * (1e-3 * delta)).normalize_or_zero();
-                    if m.length_squared() > 0.5 && best.is_none_or(|(c, _, _)| m.dot(n) > c) {
-                        best = Some((m.dot(n), q, m));
-                    }
-                }
-            }
-            Ok(best.map(|(_, q, m)| (q, m)))
-        };
-        let (Some((q1, m1)), Some((q2, m2))) = (face(a, b)?, face(b, a)?) else { break };
-        let cos = m1.dot(m2);
-        let det = 1.0 - cos * cos;
-        if det < 1e-6 {
-            break;
-        }
-        // The point of both planes nearest x: x + alpha m1 + beta m2.
-        let (r1, r2) = (m1.dot(q1 - x), m2.dot(q2 - x));
-        let y = x + m1 * ((r1 - cos * r2) / det) + m2 * ((r2 - cos * r1) / det);
-        let Some(y) = ctx.project(y)? else { break };
-        if y.distance(x) > 2.0 * delta {
-            break;
-        }
-        (x, a, b) = (y, m1, m2);
-        delta *= 0.1;
-    }
-    Ok(x)
-}
-
-/// Corners where three faces meet, from the points on edges (`found`, each with the normals of
-/// its two faces): two such points within reach whose faces bring a third normal (more than
-/// sharp::SHARP_DEG from both of the first point's) meet at the point of all three tangent planes,
-/// kept when its projection onto d = 0 hardly moves it. They go first into the thinning.
-fn corner_points(ctx: &Ctx, found: &[(DVec3, DVec3, DVec3)], gap: f64, cos_max: f64) -> Result<Vec<DVec3>, Error> {
-    let uniform = ctx.opts.size.is_none();
-    let cell = |p: DVec3| (p / gap).floor().as_i64vec3().to_array();
-    let mut cells: HashMap<[i64; 3], Vec<usize>> = HashMap::new();
-    for (k, f) in found.iter().enumerate() {
-        cells.entry(cell(f.0)).or_default().push(k);
-    }
-    let distinct = |n: DVec3, m: DVec3| {
-        let c = n.dot(m);
-        c < cos_max && c > -cos_max
-    };
-    let mut corners = Vec::new();
-    for (k, &(pa, a1, a2)) in found.iter().enumerate() {
-        let h = if uniform { 1.0 } else { ctx.h(pa)? };
-        let reach = sharp::REACH * gap * h;
-        let span = (reach / gap).ceil() as i64;
-        let c = cell(pa);
-        for dz in -span..=span {
-            for dy in -span..=span {
-                for dx in -span..=span {
-                    let Some(list) = cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) else { continue };
-                    for &j in list {
-                        let (pb, b1, b2) = found[j];
-                        if j <= k || pb.distance(pa) > reach {
-                            continue;
-                        }
-                        for nb in [b1, b2] {
-                            if !distinct(nb, a1) || !distinct(nb, a2) {
-                                continue;
-                            }
-                            let m = glam::DMat3::from_cols(a1, a2, nb).transpose();
-                            if m.determinant().abs() < 0.1 {
-                                continue;
-                            }
-                            let x = m.inverse() * DVec3::new(a1.dot(pa), a2.dot(pa), nb.dot(pb));
-                            if !x.is_finite() || x.distance(pa) > reach {
-                                continue;
-                            }
-                            let Some(p) = ctx.project(x)? else { continue };
-                            if p.distance(x) <= sharp::TOL * gap * h {
-                                corners.push(p);
-                            }
-                        }
-                    }
-                }
-            }
-        }
-    }
-    Ok(corners)
 }
 
 /// Whether a boundary face around `v` turns more than RR_SHARP degrees from the surface
@@ -234,4 +138,13 @@ pub(super) fn on_sharp_feature(ctx: &Ctx, m: &TetMesh, v: TVertexId) -> bool {
         }
     }
     false
+}
+
+impl sharp::Zero for Ctx<'_> {
+    fn project(&self, p: DVec3) -> Result<Option<DVec3>, Error> {
+        Ctx::project(self, p)
+    }
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        self.domain.gradient(p)
+    }
 }
