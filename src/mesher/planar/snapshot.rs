@@ -220,21 +220,27 @@ impl Snapshot {
                 break;
             }
             for &i in &bad {
-                let i = i as usize;
-                for k in self.adj_start[i] as usize..self.adj_start[i + 1] as usize {
-                    let j = self.adj[k] as usize;
-                    if newp[j] != old[j] {
-                        newp[j] = old[j];
-                        reverted += 1;
-                    }
-                }
-                if newp[i] != old[i] {
-                    newp[i] = old[i];
-                    reverted += 1;
-                }
+                self.revert_star(i as usize, old, newp, |_| reverted += 1);
             }
         }
         reverted
+    }
+
+    /// The neighbours of vertex i.
+    fn ring(&self, i: usize) -> &[u32] {
+        &self.adj[self.adj_start[i] as usize..self.adj_start[i + 1] as usize]
+    }
+
+    /// Sends vertex i's neighbours and then i itself back to `old` where they moved, calling
+    /// `reverted` with each one sent back (the step control's answer to a fan that folds).
+    fn revert_star(&self, i: usize, old: &[DVec2], newp: &mut [DVec2], mut reverted: impl FnMut(usize)) {
+        for &j in self.ring(i).iter().chain(std::iter::once(&(i as u32))) {
+            let j = j as usize;
+            if newp[j] != old[j] {
+                newp[j] = old[j];
+                reverted(j);
+            }
+        }
     }
 
     /// Whether the two boundary edges of boundary vertex i at positions q stay clear of the
@@ -397,21 +403,11 @@ impl Snapshot {
             }
             check.clear();
             for &i in &bad {
-                let i = i as usize;
-                let ring = &self.adj[self.adj_start[i] as usize..self.adj_start[i + 1] as usize];
-                for &j in ring.iter().chain(std::iter::once(&(i as u32))) {
-                    let j = j as usize;
-                    if newp[j] != old[j] {
-                        newp[j] = old[j];
-                        reverted += 1;
-                        check.push(j as u32 | FULL);
-                        check.extend(
-                            self.adj[self.adj_start[j] as usize..self.adj_start[j + 1] as usize]
-                                .iter()
-                                .map(|&w| w | FULL),
-                        );
-                    }
-                }
+                self.revert_star(i as usize, old, newp, |j| {
+                    reverted += 1;
+                    check.push(j as u32 | FULL);
+                    check.extend(self.ring(j).iter().map(|&w| w | FULL));
+                });
             }
             if check.is_empty() {
                 // Every node around the bad fans is back where it was (embedded): impossible,
