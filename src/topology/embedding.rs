@@ -138,32 +138,35 @@ pub(crate) fn soup_intersection(points: &[DVec3], tris: &[[usize; 3]]) -> Option
             (a.min(b).min(c), a.max(b).max(c))
         })
         .collect();
-    first_hit(&boxes, 3, |i, j| {
-        let (t, u) = (tris[i], tris[j]);
-        // Shared corners first, in matching order.
-        let mut ts = [0usize; 3];
-        let mut us = [0usize; 3];
-        let mut shared = 0;
-        for (x, &a) in t.iter().enumerate() {
-            if let Some(y) = u.iter().position(|&b| b == a) {
-                ts[shared] = x;
-                us[shared] = y;
-                shared += 1;
-            }
+    first_hit(&boxes, 3, |i, j| faces_meet(|k| points[k], tris[i], tris[j]))
+}
+
+/// Whether two triangles given by vertex indices meet other than in the corners they share
+/// (exact; see [`triangles_meet`]).
+pub(crate) fn faces_meet<T: Copy + PartialEq>(points: impl Fn(T) -> DVec3, t: [T; 3], u: [T; 3]) -> bool {
+    // Shared corners first, in matching order.
+    let mut ts = [0usize; 3];
+    let mut us = [0usize; 3];
+    let mut shared = 0;
+    for (x, &a) in t.iter().enumerate() {
+        if let Some(y) = u.iter().position(|&b| b == a) {
+            ts[shared] = x;
+            us[shared] = y;
+            shared += 1;
         }
-        let (mut nt, mut nu) = (shared, shared);
-        for x in 0..3 {
-            if !ts[..shared].contains(&x) {
-                ts[nt] = x;
-                nt += 1;
-            }
-            if !us[..shared].contains(&x) {
-                us[nu] = x;
-                nu += 1;
-            }
+    }
+    let (mut nt, mut nu) = (shared, shared);
+    for x in 0..3 {
+        if !ts[..shared].contains(&x) {
+            ts[nt] = x;
+            nt += 1;
         }
-        triangles_meet(ts.map(|x| points[t[x]]), us.map(|y| points[u[y]]), shared)
-    })
+        if !us[..shared].contains(&x) {
+            us[nu] = x;
+            nu += 1;
+        }
+    }
+    triangles_meet(ts.map(|x| points(t[x])), us.map(|y| points(u[y])), shared)
 }
 
 /// Checks that a triangle mesh in space does not intersect itself.
@@ -253,6 +256,48 @@ fn owned_ring(m: &TetMesh, t: TetId, i: usize, j: usize) -> Option<(SmallVec<[TV
     Some((back, false))
 }
 
+/// Whether the ring of the edge (a, b) turns once around it (closed) or less than once (open,
+/// the ring of a boundary edge): every tet (a, b, r_k, r_k+1) positive, and the ring crossing
+/// the half-plane of (a, b, r_0) once, or never when open (exact orient3d).
+pub(crate) fn ring_winds_once(
+    a: DVec3,
+    b: DVec3,
+    closed: bool,
+    ring: impl ExactSizeIterator<Item = DVec3> + Clone,
+) -> bool {
+    let n = ring.len();
+    let mut pts = ring.clone();
+    let Some(r0) = pts.next() else { return true };
+    let upper = |p: DVec3| match orient3d(a, b, r0, p) {
+        Sign::Positive => true,
+        Sign::Negative => false,
+        Sign::Zero => same_side_in_plane(a, b, r0, p),
+    };
+    let steps = if closed { n } else { n - 1 };
+    let mut crossings = 0u32;
+    let mut up = true;
+    let mut x = r0;
+    let mut next = ring.cycle().skip(1);
+    for _ in 0..steps {
+        let y = next.next().expect("cycle");
+        // Every step turns the same way (the tet (a, b, x, y) is positive).
+        if orient3d(a, b, x, y) != Sign::Positive {
+            return false;
+        }
+        let uy = upper(y);
+        if !up && uy {
+            crossings += 1;
+        }
+        up = uy;
+        x = y;
+    }
+    if closed {
+        crossings == 1
+    } else {
+        crossings == 0
+    }
+}
+
 /// Checks the tetrahedral embedding of a mesh whose tets are all positive (see the module
 /// notes): the winding of every edge ring, then the boundary surface.
 pub(crate) fn tetrahedral(m: &TetMesh) -> Result<(), InvariantViolation> {
@@ -261,30 +306,7 @@ pub(crate) fn tetrahedral(m: &TetMesh) -> Result<(), InvariantViolation> {
         let tx = m.tet(t);
         for [i, j] in super::EDGE_VERTICES {
             let Some((ring, closed)) = owned_ring(m, t, i, j) else { continue };
-            let (a, b) = (m.pos(tx.v[i]), m.pos(tx.v[j]));
-            let r0 = m.pos(ring[0]);
-            let upper = |p: DVec3| match orient3d(a, b, r0, p) {
-                Sign::Positive => true,
-                Sign::Negative => false,
-                Sign::Zero => same_side_in_plane(a, b, r0, p),
-            };
-            let steps = if closed { ring.len() } else { ring.len() - 1 };
-            let mut crossings = 0u32;
-            let mut up = true;
-            for s in 0..steps {
-                let y = m.pos(ring[(s + 1) % ring.len()]);
-                // Every step turns the same way (the tet (a, b, x, y) is positive).
-                if orient3d(a, b, m.pos(ring[s]), y) != Sign::Positive {
-                    return Some(violation(Invariant::FoldedEdge, t));
-                }
-                let uy = upper(y);
-                if !up && uy {
-                    crossings += 1;
-                }
-                up = uy;
-            }
-            let ok = if closed { crossings == 1 } else { crossings == 0 };
-            if !ok {
+            if !ring_winds_once(m.pos(tx.v[i]), m.pos(tx.v[j]), closed, ring.iter().map(|&w| m.pos(w))) {
                 return Some(violation(Invariant::FoldedEdge, t));
             }
         }

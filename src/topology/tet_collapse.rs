@@ -87,6 +87,9 @@ impl TetMesh {
         plan.remove = Some(a);
         plan.moved = Some((b, pos));
         plan.min_quality = worst;
+        if !self.patch_unfolded(&plan) {
+            return Err(Refusal::WouldFold);
+        }
         Ok(plan)
     }
 

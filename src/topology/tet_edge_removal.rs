@@ -130,7 +130,12 @@ impl TetMesh {
         if n == 3 && s.closed && self.has_face(s.ring[0], s.ring[1], s.ring[2]) {
             return Err(Refusal::DuplicateEdge);
         }
-        Ok((self.patch(s.tets.iter().copied().collect(), new), value))
+        let plan = self.patch(s.tets.iter().copied().collect(), new);
+        // Around a boundary edge the boundary surface changes: it must not fold.
+        if !s.closed && !self.patch_unfolded(&plan) {
+            return Err(Refusal::WouldFold);
+        }
+        Ok((plan, value))
     }
 
     /// Checks removing the interior edge of the shell: the n tets around it become 2n - 4 tets

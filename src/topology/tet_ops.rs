@@ -8,7 +8,7 @@
 //! keys, so one routine keeps neighbours, face indices and vertex pointers right for all ops.
 
 use super::tetmesh::{face_key, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_VERTICES};
-use super::{Refusal, VertexTag};
+use super::{embedding::faces_meet, embedding::ring_winds_once, Refusal, VertexTag};
 use crate::predicates::{orient3d, Sign};
 use glam::DVec3;
 use slotmap::Key;
@@ -411,9 +411,136 @@ impl TetMesh {
         if !p.is_finite() {
             return Err(Refusal::NonFinite);
         }
-        for t in self.vertex_tets(v) {
+        let star = self.vertex_tets(v);
+        for &t in &star {
             let q = self.tets[t].v.map(|w| if w == v { p } else { self.pos(w) });
             positive(orient3d(q[0], q[1], q[2], q[3]))?;
+        }
+        self.check_boundary_rings(v, p, &star)
+    }
+
+    /// Whether `plan` would leave the boundary unwrapped: around every edge of its new tets
+    /// with both ends on the boundary, the dihedral angles of the tets there after the patch
+    /// (the new ones and the untouched ones) add up to at most a full turn. A patch that
+    /// changes the boundary surface (a collapse of a boundary node, a boundary edge removal
+    /// or flip) can keep every tet positive and still lay the boundary over itself; one that
+    /// keeps the boundary faces cannot. Angles in floating point: a sum within 1e-6 of a full
+    /// turn counts as a full turn.
+    pub fn patch_unfolded(&self, plan: &TetPatch) -> bool {
+        let at = |v: TVertexId| {
+            if v.is_null() {
+                plan.add.expect("patch with a new vertex").0
+            } else {
+                match plan.moved {
+                    Some((w, p)) if w == v => p,
+                    _ => self.pos(v),
+                }
+            }
+        };
+        let on_boundary = |v: TVertexId| {
+            let tag = if v.is_null() { plan.add.expect("patch with a new vertex").1 } else { self.tag(v) };
+            matches!(tag, VertexTag::Boundary | VertexTag::Fixed)
+        };
+        let mut seen: SmallVec<[(TVertexId, TVertexId); 32]> = SmallVec::new();
+        for (tv, _) in &plan.new {
+            for [i, j] in EDGE_VERTICES {
+                let (a, b) = (tv[i], tv[j]);
+                if !on_boundary(a) || !on_boundary(b) {
+                    continue;
+                }
+                let key = if a < b { (a, b) } else { (b, a) };
+                if seen.contains(&key) {
+                    continue;
+                }
+                seen.push(key);
+                let angle_at = |v: [TVertexId; 4]| {
+                    let [c, d]: [TVertexId; 2] = {
+                        let mut o = v.iter().copied().filter(|&x| x != a && x != b);
+                        [o.next().expect("tet"), o.next().expect("tet")]
+                    };
+                    dihedral_at(at(a), at(b), at(c), at(d))
+                };
+                let mut sum: f64 =
+                    plan.new.iter().filter(|(v, _)| v.contains(&a) && v.contains(&b)).map(|(v, _)| angle_at(*v)).sum();
+                if !a.is_null() && !b.is_null() {
+                    for t in self.vertex_tets(a) {
+                        let v = self.tets[t].v;
+                        if v.contains(&b) && !plan.old.contains(&t) {
+                            sum += angle_at(v);
+                        }
+                    }
+                }
+                if sum > std::f64::consts::TAU + 1e-6 {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// Every tet positive is not enough at the boundary: the ring of a boundary edge in the
+    /// star of `v` may wrap past a full turn (the boundary laid over itself). The edges of the
+    /// star with both ends on the boundary get the open-ring test with `v` at `p`.
+    fn check_boundary_rings(&self, v: TVertexId, p: DVec3, star: &[TetId]) -> Result<(), Refusal> {
+        let on_boundary = |w: TVertexId| matches!(self.tag(w), VertexTag::Boundary | VertexTag::Fixed);
+        let at = |w: TVertexId| if w == v { p } else { self.pos(w) };
+        let mut seen: SmallVec<[(TVertexId, TVertexId); 32]> = SmallVec::new();
+        for &t in star {
+            let tv = self.tets[t].v;
+            for [i, j] in EDGE_VERTICES {
+                let (a, b) = (tv[i], tv[j]);
+                if !on_boundary(a) || !on_boundary(b) {
+                    continue;
+                }
+                let key = if a < b { (a, b) } else { (b, a) };
+                if seen.contains(&key) {
+                    continue;
+                }
+                seen.push(key);
+                let shell = self.edge_shell(t, i, j);
+                if !shell.closed && !ring_winds_once(at(shell.a), at(shell.b), false, shell.ring.iter().map(|&w| at(w)))
+                {
+                    return Err(Refusal::WouldFold);
+                }
+            }
+        }
+        if !on_boundary(v) {
+            return Ok(());
+        }
+        // The boundary faces of v against those of its star and of the tets next to it: a
+        // move across a thin part must not push one sheet of the boundary through another.
+        let mut mine: SmallVec<[[TVertexId; 3]; 12]> = SmallVec::new();
+        let mut near: SmallVec<[[TVertexId; 3]; 64]> = SmallVec::new();
+        for &t in star {
+            let tx = self.tets[t];
+            for f in 0..4 {
+                match tx.adj[f] {
+                    None => {
+                        let face = self.face_vertices(t, f);
+                        if face.contains(&v) {
+                            mine.push(face);
+                        } else {
+                            near.push(face);
+                        }
+                    }
+                    Some((u, _)) if !star.contains(&u) => {
+                        let ux = self.tets[u];
+                        for g in 0..4 {
+                            if ux.adj[g].is_none() {
+                                near.push(self.face_vertices(u, g));
+                            }
+                        }
+                    }
+                    Some(_) => {}
+                }
+            }
+        }
+        for (k, &f) in mine.iter().enumerate() {
+            for &g in mine[k + 1..].iter().chain(near.iter()) {
+                if faces_meet(at, f, g) {
+                    return Err(Refusal::WouldFold);
+                }
+            }
         }
         Ok(())
     }
@@ -425,4 +552,12 @@ impl TetMesh {
         self.revision = self.revision.wrapping_add(1);
         Ok(())
     }
+}
+
+/// The dihedral angle of the tet (a, b, c, d) at its edge (a, b), in radians.
+fn dihedral_at(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
+    let e = (b - a).normalize_or_zero();
+    let (u, w) = (c - a, d - a);
+    let (u, w) = (u - e * u.dot(e), w - e * w.dot(e));
+    u.cross(w).length().atan2(u.dot(w))
 }

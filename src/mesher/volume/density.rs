@@ -48,14 +48,15 @@ pub(super) fn density_control(
         let e = edge_index(m, t, a, b);
         let mid = (m.pos(a) + m.pos(b)) * 0.5;
         let boundary = !m.edge_shell(t, EDGE_VERTICES[e][0], EDGE_VERTICES[e][1]).closed;
-        let mut at = mid;
-        if boundary {
-            if let Some(q) = ctx.project(mid)? {
-                at = q;
+        // At the midpoint the split covers the same region; a boundary node then moves onto
+        // d = 0 by a checked relocation (no tet inverted, no boundary ring wrapped), or stays
+        // for the next projection.
+        if let Ok(v) = m.split_edge(t, e, mid) {
+            if boundary {
+                if let Some(q) = ctx.project(mid)? {
+                    let _ = m.relocate(v, q);
+                }
             }
-        }
-        let split = m.split_edge(t, e, at).or_else(|_| m.split_edge(t, e, mid));
-        if let Ok(v) = split {
             ctx.report.ops.splits += 1;
             changed = true;
             touched[i as usize] = true;

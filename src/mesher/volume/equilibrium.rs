@@ -150,6 +150,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         }
         clock.lap("projection");
         snap.guard_inversions(&p, &mut newp);
+        snap.guard_boundary_folds(&p, &mut newp);
         clock.lap("step control");
         let max_move = (0..p.len())
             .into_par_iter()
@@ -158,6 +159,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             .map(|i| newp[i].distance(p[i]) / (h0 * hv[i]))
             .reduce(|| 0.0, f64::max);
         p = newp;
+
         // Connectivity: faces around nodes that moved farther than TTOL since their last check
         // get the exact insphere test, and Lawson flips repair them.
         let mut topo_changed = false;
@@ -356,7 +358,9 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
             for (a, b) in lost {
                 snap.remove_edge(a, b);
             }
+            let removed: Vec<[u32; 4]> = gone.iter().map(|&k| snap.tets[k]).collect();
             snap.remove_tets(&gone);
+            snap.patch_rings(m, &removed);
             pold.copy_from_slice(&p);
             hv = sizes(ctx, &p)?;
         } else if !uniform && iter % DENSITY_EVERY == 0 {

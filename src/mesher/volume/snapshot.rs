@@ -6,8 +6,11 @@ use crate::mesher::truss::{self, det_sum, Backoff, NodeKind};
 /// Step control: a vertex of a tet a step would invert steps back halfway at most this many
 /// times, then stays where it was.
 const MAX_HALVINGS: u8 = 6;
+/// Step control: rounds of the boundary fold check before the whole step is taken back.
+const MAX_FOLD_ROUNDS: usize = 8;
 use crate::predicates::{orient3d, Sign};
-use crate::topology::{Journal, TVertexId, TetId, TetMesh, VertexTag};
+use crate::topology::{faces_meet, ring_winds_once};
+use crate::topology::{Journal, TVertexId, TetId, TetMesh, VertexTag, EDGE_VERTICES, FACE_VERTICES};
 use glam::DVec3;
 use rayon::prelude::*;
 use slotmap::SecondaryMap;
@@ -35,6 +38,143 @@ pub(super) struct Snapshot {
     adj: Vec<u32>,
     /// Entries dead or added and rows moved since the build.
     spent: usize,
+    /// Every boundary edge with its open ring, as flat records (a, b, r_0, ..., r_k) starting
+    /// at `ring_start[e]`: what the fold check of a step reads.
+    rings: Vec<u32>,
+    ring_start: Vec<u32>,
+    /// Pairs of boundary faces near each other where the boundary is thin (two sheets facing
+    /// within two rings of a vertex): a step must not make them cross.
+    face_pairs: Vec<[[u32; 3]; 2]>,
+}
+
+/// Whether the open ring of record `r` already turns within NEAR_WRAP of a full turn at `p`:
+/// the boundary there is folded nearly flat onto itself, and the step control lets such a ring
+/// through (freezing its nodes would keep the fold; the flat boundary tets leave later).
+fn nearly_wrapped(p: &[DVec3], r: &[u32]) -> bool {
+    let (a, b) = (p[r[0] as usize], p[r[1] as usize]);
+    let e = (b - a).normalize_or_zero();
+    let turn: f64 = r[2..]
+        .windows(2)
+        .map(|w| {
+            let (u, v) = (p[w[0] as usize] - a, p[w[1] as usize] - a);
+            let (u, v) = (u - e * u.dot(e), v - e * v.dot(e));
+            u.cross(v).length().atan2(u.dot(v))
+        })
+        .sum();
+    turn > std::f64::consts::TAU - NEAR_WRAP
+}
+
+/// See [`nearly_wrapped`] (radians).
+const NEAR_WRAP: f64 = 0.5;
+
+/// The boundary face pairs of `Snapshot::face_pairs`: around every boundary vertex with a
+/// boundary vertex of opposite normal (area-weighted, at the build's positions) within two
+/// rings, its boundary faces against those of the two rings. Empty away from thin parts.
+fn thin_face_pairs(m: &TetMesh, snap: &Snapshot) -> Vec<[[u32; 3]; 2]> {
+    let n = snap.ids.len();
+    let faces: Vec<[u32; 3]> =
+        m.boundary_faces().into_iter().map(|(t, i)| m.face_vertices(t, i).map(|v| snap.index[v])).collect();
+    let inc = crate::topology::Incidence::new(n, &faces);
+    let pos = |i: u32| m.pos(snap.ids[i as usize]);
+    let normals: Vec<DVec3> = (0..n)
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|i| {
+            inc.of(i)
+                .iter()
+                .map(|&f| {
+                    let [a, b, c] = faces[f as usize].map(pos);
+                    (b - a).cross(c - a)
+                })
+                .sum::<DVec3>()
+                .normalize_or_zero()
+        })
+        .collect();
+    // Thin at i: a boundary vertex within two rings faces the other way (repeats allowed:
+    // about 200 dot products, no set).
+    let thin = |i: usize| {
+        let ni = normals[i];
+        snap.row(i).iter().any(|&k| {
+            let k = k as usize;
+            ni.dot(normals[k]) < 0.0 || snap.row(k).iter().any(|&j| ni.dot(normals[j as usize]) < 0.0)
+        })
+    };
+    let mut pairs: Vec<[[u32; 3]; 2]> = (0..n)
+        .into_par_iter()
+        .with_min_len(256)
+        .filter(|&i| snap.kind[i] != NodeKind::Dead && !inc.of(i).is_empty() && thin(i))
+        .flat_map_iter(|i| {
+            let mut near: SmallVec<[u32; 64]> = SmallVec::new();
+            near.push(i as u32);
+            let mut from = 0;
+            for _ in 0..2 {
+                let to = near.len();
+                for k in from..to {
+                    let v = near[k] as usize;
+                    for &w in snap.row(v) {
+                        if w as usize != v && !near.contains(&w) {
+                            near.push(w);
+                        }
+                    }
+                }
+                from = to;
+            }
+            let mut others: SmallVec<[u32; 128]> =
+                near.iter().flat_map(|&j| inc.of(j as usize).iter().copied()).collect();
+            others.sort_unstable();
+            others.dedup();
+            let mut out: Vec<[[u32; 3]; 2]> = Vec::new();
+            for &f in inc.of(i) {
+                for &g in &others {
+                    if g != f {
+                        let (x, y) = (f.min(g), f.max(g));
+                        out.push([faces[x as usize], faces[y as usize]]);
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    pairs.sort_unstable();
+    pairs.dedup();
+    pairs
+}
+
+/// The boundary edges of `m` and their rings, in snapshot indices (see `Snapshot::rings`):
+/// each edge of a boundary face once, its shell walked from that face.
+fn boundary_rings(m: &TetMesh, index: &SecondaryMap<TVertexId, u32>) -> (Vec<u32>, Vec<u32>) {
+    let mut edges: Vec<((u32, u32), TetId, usize, usize)> = Vec::new();
+    for (t, f) in m.boundary_faces() {
+        let v = m.tet(t).v;
+        let face = FACE_VERTICES[f];
+        for (i, j) in [(face[0], face[1]), (face[1], face[2]), (face[2], face[0])] {
+            let (x, y) = (index[v[i]], index[v[j]]);
+            edges.push(((x.min(y), x.max(y)), t, i, j));
+        }
+    }
+    edges.sort_unstable_by_key(|e| e.0);
+    edges.dedup_by_key(|e| e.0);
+    let records: Vec<SmallVec<[u32; 12]>> = edges
+        .par_iter()
+        .with_min_len(256)
+        .map(|&(_, t, i, j)| {
+            let shell = m.edge_shell(t, i, j);
+            let mut r: SmallVec<[u32; 12]> = SmallVec::new();
+            if !shell.closed {
+                r.extend([index[shell.a], index[shell.b]]);
+                r.extend(shell.ring.iter().map(|&w| index[w]));
+            }
+            r
+        })
+        .collect();
+    let mut rings = Vec::with_capacity(records.iter().map(|r| r.len()).sum());
+    let mut start = Vec::with_capacity(records.len() + 1);
+    for r in records.iter().filter(|r| !r.is_empty()) {
+        start.push(rings.len() as u32);
+        rings.extend_from_slice(r);
+    }
+    start.push(rings.len() as u32);
+    (rings, start)
 }
 
 fn kind_of(tag: VertexTag) -> NodeKind {
@@ -52,6 +192,119 @@ impl Snapshot {
         truss::guard_inversions(&self.tets, None, old, newp, MAX_HALVINGS, Backoff::PerRound, |q, t| {
             orient3d(q[t[0] as usize], q[t[1] as usize], q[t[2] as usize], q[t[3] as usize]) == Sign::Positive
         });
+    }
+
+    /// Step control against folds at the boundary: a step that leaves every tet positive can
+    /// still wrap the ring of a boundary edge more than once around it (a boundary node
+    /// projected across a thin part onto the far side), or push two facing sheets of the
+    /// boundary through each other (`face_pairs`). The vertices of such a ring or pair go
+    /// halfway back to `old` (all the way in the last three rounds), the orientation check runs
+    /// again on the mixed positions, and the rings are checked again (at most MAX_FOLD_ROUNDS
+    /// rounds, then every node goes back). A ring already within NEAR_WRAP of a full turn is
+    /// let through ([`nearly_wrapped`]). Rings whose vertices
+    /// all kept their place are not checked: `old` is an embedding. Returns how many nodes
+    /// went back.
+    pub(super) fn guard_boundary_folds(&self, old: &[DVec3], newp: &mut [DVec3]) -> usize {
+        let mut reverted = 0;
+        for round in 0..MAX_FOLD_ROUNDS {
+            let q: &[DVec3] = newp;
+            let bad: Vec<usize> = (0..self.ring_start.len() - 1)
+                .into_par_iter()
+                .with_min_len(256)
+                .filter(|&e| {
+                    let r = self.ring_record(e);
+                    if r.iter().all(|&k| q[k as usize] == old[k as usize]) {
+                        return false;
+                    }
+                    let (a, b) = (q[r[0] as usize], q[r[1] as usize]);
+                    !ring_winds_once(a, b, false, r[2..].iter().map(|&k| q[k as usize])) && !nearly_wrapped(old, r)
+                })
+                .collect();
+            let crossing: Vec<usize> = (0..self.face_pairs.len())
+                .into_par_iter()
+                .with_min_len(256)
+                .filter(|&k| {
+                    let [f, g] = self.face_pairs[k];
+                    f.iter().chain(&g).any(|&i| q[i as usize] != old[i as usize])
+                        && faces_meet(|i: u32| q[i as usize], f, g)
+                })
+                .collect();
+            if bad.is_empty() && crossing.is_empty() {
+                return reverted;
+            }
+            // Halfway back first (the node still approaches d = 0 or its equilibrium), all
+            // the way in the last rounds.
+            let half = round + 3 < MAX_FOLD_ROUNDS;
+            let mut back = |k: u32| {
+                let k = k as usize;
+                if newp[k] != old[k] {
+                    newp[k] = if half { old[k].lerp(newp[k], 0.5) } else { old[k] };
+                    reverted += 1;
+                }
+            };
+            for e in bad {
+                for &k in self.ring_record(e) {
+                    back(k);
+                }
+            }
+            for k in crossing {
+                let [f, g] = self.face_pairs[k];
+                for i in f.into_iter().chain(g) {
+                    back(i);
+                }
+            }
+            self.guard_inversions(old, newp);
+        }
+        for (x, &o) in newp.iter_mut().zip(old) {
+            if *x != o {
+                *x = o;
+                reverted += 1;
+            }
+        }
+        reverted
+    }
+
+    /// The boundary edges' rings and the thin parts' face pairs read again from `m`, after
+    /// any change of the boundary (a refresh, or boundary tets removed in place).
+    pub(super) fn refresh_boundary(&mut self, m: &TetMesh) {
+        (self.rings, self.ring_start) = boundary_rings(m, &self.index);
+        self.face_pairs = thin_face_pairs(m, self);
+    }
+
+    /// The rings after boundary tets were removed in place (`removed`: their vertices, in
+    /// snapshot indices): only the six edges of each removed tet have another ring, so their
+    /// records are dropped and read again from `m`. The face pairs stay until the next refresh
+    /// (the faces a removal uncovers were interior and join them then).
+    pub(super) fn patch_rings(&mut self, m: &TetMesh, removed: &[[u32; 4]]) {
+        let mut keys: Vec<(u32, u32)> = removed
+            .iter()
+            .flat_map(|t| EDGE_VERTICES.iter().map(move |&[i, j]| (t[i].min(t[j]), t[i].max(t[j]))))
+            .collect();
+        keys.sort_unstable();
+        keys.dedup();
+        let (mut rings, mut start) = (Vec::with_capacity(self.rings.len()), Vec::with_capacity(self.ring_start.len()));
+        for e in 0..self.ring_start.len() - 1 {
+            let r = self.ring_record(e);
+            if keys.binary_search(&(r[0].min(r[1]), r[0].max(r[1]))).is_err() {
+                start.push(rings.len() as u32);
+                rings.extend_from_slice(r);
+            }
+        }
+        for (a, b) in keys {
+            let Some(shell) = m.edge_shell_of(self.ids[a as usize], self.ids[b as usize]) else { continue };
+            if !shell.closed {
+                start.push(rings.len() as u32);
+                rings.extend([self.index[shell.a], self.index[shell.b]]);
+                rings.extend(shell.ring.iter().map(|&w| self.index[w]));
+            }
+        }
+        start.push(rings.len() as u32);
+        (self.rings, self.ring_start) = (rings, start);
+    }
+
+    /// Boundary edge e's record: its two ends, then its ring.
+    fn ring_record(&self, e: usize) -> &[u32] {
+        &self.rings[self.ring_start[e] as usize..self.ring_start[e + 1] as usize]
     }
 
     /// The entries of vertex i's row.
@@ -157,7 +410,21 @@ impl Snapshot {
             }
             adj.extend_from_slice(flat);
         }
-        Snapshot { ids, index, kind, tets, tet_ids, rows, adj, spent: 0 }
+        let mut snap = Snapshot {
+            ids,
+            index,
+            kind,
+            tets,
+            tet_ids,
+            rows,
+            adj,
+            spent: 0,
+            rings: Vec::new(),
+            ring_start: vec![0],
+            face_pairs: Vec::new(),
+        };
+        snap.refresh_boundary(m);
+        snap
     }
 
     /// Brings the snapshot up to date after local topology changes: the kinds and the tets are
@@ -239,6 +506,7 @@ impl Snapshot {
                 self.rows[i] = (start, self.adj.len() as u32);
             }
         }
+        self.refresh_boundary(m);
         true
     }
 }
