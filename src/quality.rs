@@ -104,6 +104,14 @@ pub fn tet_circumradius(p: [DVec3; 4]) -> f64 {
 /// Dihedral angle of the regular tetrahedron, degrees.
 pub(crate) const REGULAR_DIHEDRAL: f64 = 70.528_779_365_509_3;
 
+/// The dihedral angle of the tet (a, b, c, d) at its edge (a, b), in radians (0 to pi).
+pub(crate) fn dihedral_angle_at(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
+    let e = (b - a).normalize_or_zero();
+    let (u, w) = (c - a, d - a);
+    let (u, w) = (u - e * u.dot(e), w - e * w.dot(e));
+    u.cross(w).length().atan2(u.dot(w))
+}
+
 /// Dihedral quality of a tetrahedron: 1 for the regular tet, 0 when a dihedral angle reaches 0
 /// or 180 degrees; min(theta_min / 70.5, (180 - theta_max) / 109.5). Negative for inverted
 /// tets. This is the measure the 3-D mesher's targets are stated in (minimum and maximum

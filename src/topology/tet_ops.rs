@@ -10,6 +10,7 @@
 use super::tetmesh::{face_key, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_VERTICES};
 use super::{embedding::faces_meet, embedding::ring_winds_once, Refusal, VertexTag};
 use crate::predicates::{orient3d, Sign};
+use crate::quality::dihedral_angle_at;
 use glam::DVec3;
 use slotmap::Key;
 use smallvec::SmallVec;
@@ -441,38 +442,25 @@ impl TetMesh {
             let tag = if v.is_null() { plan.add.expect("patch with a new vertex").1 } else { self.tag(v) };
             matches!(tag, VertexTag::Boundary | VertexTag::Fixed)
         };
-        let mut seen: SmallVec<[(TVertexId, TVertexId); 32]> = SmallVec::new();
-        for (tv, _) in &plan.new {
-            for [i, j] in EDGE_VERTICES {
-                let (a, b) = (tv[i], tv[j]);
-                if !on_boundary(a) || !on_boundary(b) {
-                    continue;
-                }
-                let key = if a < b { (a, b) } else { (b, a) };
-                if seen.contains(&key) {
-                    continue;
-                }
-                seen.push(key);
-                let angle_at = |v: [TVertexId; 4]| {
-                    let [c, d]: [TVertexId; 2] = {
-                        let mut o = v.iter().copied().filter(|&x| x != a && x != b);
-                        [o.next().expect("tet"), o.next().expect("tet")]
-                    };
-                    dihedral_at(at(a), at(b), at(c), at(d))
-                };
-                let mut sum: f64 =
-                    plan.new.iter().filter(|(v, _)| v.contains(&a) && v.contains(&b)).map(|(v, _)| angle_at(*v)).sum();
-                if !a.is_null() && !b.is_null() {
-                    for t in self.vertex_tets(a) {
-                        let v = self.tets[t].v;
-                        if v.contains(&b) && !plan.old.contains(&t) {
-                            sum += angle_at(v);
-                        }
+        for (k, [i, j]) in boundary_edges(plan.new.iter().map(|x| x.0), on_boundary) {
+            let (a, b) = (plan.new[k].0[i], plan.new[k].0[j]);
+            let angle_at = |v: [TVertexId; 4]| {
+                let mut o = v.iter().copied().filter(|&x| x != a && x != b);
+                let (c, d) = (o.next().expect("tet"), o.next().expect("tet"));
+                dihedral_angle_at(at(a), at(b), at(c), at(d))
+            };
+            let mut sum: f64 =
+                plan.new.iter().filter(|(v, _)| v.contains(&a) && v.contains(&b)).map(|(v, _)| angle_at(*v)).sum();
+            if !a.is_null() && !b.is_null() {
+                for t in self.vertex_tets(a) {
+                    let v = self.tets[t].v;
+                    if v.contains(&b) && !plan.old.contains(&t) {
+                        sum += angle_at(v);
                     }
                 }
-                if sum > std::f64::consts::TAU + 1e-6 {
-                    return false;
-                }
+            }
+            if sum > std::f64::consts::TAU + 1e-6 {
+                return false;
             }
         }
         true
@@ -484,24 +472,10 @@ impl TetMesh {
     fn check_boundary_rings(&self, v: TVertexId, p: DVec3, star: &[TetId]) -> Result<(), Refusal> {
         let on_boundary = |w: TVertexId| matches!(self.tag(w), VertexTag::Boundary | VertexTag::Fixed);
         let at = |w: TVertexId| if w == v { p } else { self.pos(w) };
-        let mut seen: SmallVec<[(TVertexId, TVertexId); 32]> = SmallVec::new();
-        for &t in star {
-            let tv = self.tets[t].v;
-            for [i, j] in EDGE_VERTICES {
-                let (a, b) = (tv[i], tv[j]);
-                if !on_boundary(a) || !on_boundary(b) {
-                    continue;
-                }
-                let key = if a < b { (a, b) } else { (b, a) };
-                if seen.contains(&key) {
-                    continue;
-                }
-                seen.push(key);
-                let shell = self.edge_shell(t, i, j);
-                if !shell.closed && !ring_winds_once(at(shell.a), at(shell.b), false, shell.ring.iter().map(|&w| at(w)))
-                {
-                    return Err(Refusal::WouldFold);
-                }
+        for (k, [i, j]) in boundary_edges(star.iter().map(|&t| self.tets[t].v), on_boundary) {
+            let shell = self.edge_shell(star[k], i, j);
+            if !shell.closed && !ring_winds_once(at(shell.a), at(shell.b), false, shell.ring.iter().map(|&w| at(w))) {
+                return Err(Refusal::WouldFold);
             }
         }
         if !on_boundary(v) {
@@ -554,10 +528,23 @@ impl TetMesh {
     }
 }
 
-/// The dihedral angle of the tet (a, b, c, d) at its edge (a, b), in radians.
-fn dihedral_at(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
-    let e = (b - a).normalize_or_zero();
-    let (u, w) = (c - a, d - a);
-    let (u, w) = (u - e * u.dot(e), w - e * w.dot(e));
-    u.cross(w).length().atan2(u.dot(w))
+/// The edges of `tets` with both ends on the boundary, each once: (position in `tets`, the
+/// edge's local vertices).
+fn boundary_edges(
+    tets: impl Iterator<Item = [TVertexId; 4]>,
+    on_boundary: impl Fn(TVertexId) -> bool,
+) -> SmallVec<[(usize, [usize; 2]); 32]> {
+    let mut seen: SmallVec<[(TVertexId, TVertexId); 32]> = SmallVec::new();
+    let mut out = SmallVec::new();
+    for (k, tv) in tets.enumerate() {
+        for [i, j] in EDGE_VERTICES {
+            let (a, b) = (tv[i], tv[j]);
+            let key = if a < b { (a, b) } else { (b, a) };
+            if on_boundary(a) && on_boundary(b) && !seen.contains(&key) {
+                seen.push(key);
+                out.push((k, [i, j]));
+            }
+        }
+    }
+    out
 }

@@ -10,7 +10,7 @@ const MAX_HALVINGS: u8 = 6;
 const MAX_FOLD_ROUNDS: usize = 8;
 use crate::predicates::{orient3d, Sign};
 use crate::topology::{faces_meet, ring_winds_once};
-use crate::topology::{Journal, TVertexId, TetId, TetMesh, VertexTag, EDGE_VERTICES, FACE_VERTICES};
+use crate::topology::{EdgeShell, Journal, TVertexId, TetId, TetMesh, VertexTag, EDGE_VERTICES, FACE_VERTICES};
 use glam::DVec3;
 use rayon::prelude::*;
 use slotmap::SecondaryMap;
@@ -47,20 +47,24 @@ pub(super) struct Snapshot {
     face_pairs: Vec<[[u32; 3]; 2]>,
 }
 
+/// An open shell as a ring record (a, b, r_0, ..., r_k) in snapshot indices; empty for a
+/// closed one.
+fn open_ring_record(shell: &EdgeShell, index: &SecondaryMap<TVertexId, u32>) -> SmallVec<[u32; 12]> {
+    let mut r = SmallVec::new();
+    if !shell.closed {
+        r.extend([index[shell.a], index[shell.b]]);
+        r.extend(shell.ring.iter().map(|&w| index[w]));
+    }
+    r
+}
+
 /// Whether the open ring of record `r` already turns within NEAR_WRAP of a full turn at `p`:
 /// the boundary there is folded nearly flat onto itself, and the step control lets such a ring
 /// through (freezing its nodes would keep the fold; the flat boundary tets leave later).
 fn nearly_wrapped(p: &[DVec3], r: &[u32]) -> bool {
     let (a, b) = (p[r[0] as usize], p[r[1] as usize]);
-    let e = (b - a).normalize_or_zero();
-    let turn: f64 = r[2..]
-        .windows(2)
-        .map(|w| {
-            let (u, v) = (p[w[0] as usize] - a, p[w[1] as usize] - a);
-            let (u, v) = (u - e * u.dot(e), v - e * v.dot(e));
-            u.cross(v).length().atan2(u.dot(v))
-        })
-        .sum();
+    let turn: f64 =
+        r[2..].windows(2).map(|w| crate::quality::dihedral_angle_at(a, b, p[w[0] as usize], p[w[1] as usize])).sum();
     turn > std::f64::consts::TAU - NEAR_WRAP
 }
 
@@ -157,15 +161,7 @@ fn boundary_rings(m: &TetMesh, index: &SecondaryMap<TVertexId, u32>) -> (Vec<u32
     let records: Vec<SmallVec<[u32; 12]>> = edges
         .par_iter()
         .with_min_len(256)
-        .map(|&(_, t, i, j)| {
-            let shell = m.edge_shell(t, i, j);
-            let mut r: SmallVec<[u32; 12]> = SmallVec::new();
-            if !shell.closed {
-                r.extend([index[shell.a], index[shell.b]]);
-                r.extend(shell.ring.iter().map(|&w| index[w]));
-            }
-            r
-        })
+        .map(|&(_, t, i, j)| open_ring_record(&m.edge_shell(t, i, j), index))
         .collect();
     let mut rings = Vec::with_capacity(records.iter().map(|r| r.len()).sum());
     let mut start = Vec::with_capacity(records.len() + 1);
@@ -292,10 +288,10 @@ impl Snapshot {
         }
         for (a, b) in keys {
             let Some(shell) = m.edge_shell_of(self.ids[a as usize], self.ids[b as usize]) else { continue };
-            if !shell.closed {
+            let r = open_ring_record(&shell, &self.index);
+            if !r.is_empty() {
                 start.push(rings.len() as u32);
-                rings.extend([self.index[shell.a], self.index[shell.b]]);
-                rings.extend(shell.ring.iter().map(|&w| self.index[w]));
+                rings.extend_from_slice(&r);
             }
         }
         start.push(rings.len() as u32);
