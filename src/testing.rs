@@ -110,6 +110,8 @@ pub enum Op {
     RemoveBoundaryTriangle(u16),
     /// Fill the ear on the k-th half-edge if it is a boundary half-edge.
     FillEar(u16),
+    /// Remove the k-th vertex with its only triangle if it is a boundary ear.
+    RemoveEar(u16),
 }
 
 /// A planar k x k grid of squares cut in two (2 k^2 triangles) as mesh file data, its rows
@@ -179,6 +181,10 @@ pub fn apply_op(m: &mut TriMesh<DVec2>, op: Op) -> Result<(), Refusal> {
         Op::FillEar(k) => {
             let h = nth(m.half_edge_ids(), 2 * m.num_edges(), k).ok_or(Refusal::StaleKey)?;
             m.fill_boundary_ear(h, 0).map(|_| ())
+        }
+        Op::RemoveEar(k) => {
+            let v = nth(m.vertex_ids(), m.num_vertices(), k).ok_or(Refusal::StaleKey)?;
+            m.remove_boundary_ear(v)
         }
     }
 }

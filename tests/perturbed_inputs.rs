@@ -110,12 +110,11 @@ fn perturbed_domains_mesh_at_the_same_quality() {
     check(cases());
 }
 
-/// With d + 1e-12 x the fixed corners (1, +-1) are 1e-12 outside the shifted side x = 1 - 1e-12,
-/// and the mesh ends with a boundary sliver there (q 2.6e-10, angles 0 to 180 degrees; the
-/// report warns). Open defect: the equilibrium churns (10 splits and 10 collapses every 100
-/// steps next to the corner) and leaves a node 1e-12 inside the chord from the corner.
+/// With d + 1e-12 x the fixed corners (1, +-1) are 1e-12 outside the shifted side x = 1 - 1e-12.
+/// The mesh used to end with a boundary sliver there (q 2.6e-10, a node 1e-12 inside the
+/// chord from the corner); the force step now keeps triangles from turning flat and flat
+/// boundary ears are peeled.
 #[test]
-#[ignore = "open defect: fixed corners 1e-12 off the boundary leave a boundary sliver (q min 0, warned)"]
 fn fixed_corners_a_hair_off_the_boundary_mesh_at_the_same_quality() {
     check(vec![square_with_hole()]);
 }

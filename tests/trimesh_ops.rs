@@ -366,6 +366,7 @@ fn op_strategy() -> impl Strategy<Value = Op> {
         Just(Op::Delaunay),
         any::<u16>().prop_map(Op::RemoveBoundaryTriangle),
         any::<u16>().prop_map(Op::FillEar),
+        any::<u16>().prop_map(Op::RemoveEar),
     ]
 }
 
@@ -446,4 +447,29 @@ fn delaunay_on_grid_points_and_duplicates() {
     assert_eq!(m.num_faces(), 2 * 19 * 19);
     assert!(TriMesh::delaunay(&[DVec2::ZERO, DVec2::X]).is_err());
     assert!(TriMesh::delaunay(&[DVec2::ZERO, DVec2::X, DVec2::new(f64::NAN, 0.0)]).is_err());
+}
+
+#[test]
+fn remove_boundary_ear_peels_a_flat_ear() {
+    // a, v, c nearly on a line below the chord a-c, w above it: the ear (a, v, c) goes.
+    let p = [DVec2::new(0.0, 0.0), DVec2::new(1.0, -1e-3), DVec2::new(2.0, 0.0), DVec2::new(1.0, 1.0)];
+    let (mut m, ids) = TriMesh::from_arrays(&p, &[[0, 1, 2], [0, 2, 3]]).unwrap();
+    assert_eq!(m.remove_boundary_ear(ids[1]), Err(Refusal::Protected(VertexTag::Interior)));
+    for &v in &ids {
+        m.set_tag(v, VertexTag::Boundary);
+    }
+    // A vertex with two triangles is no ear.
+    let before = m.clone();
+    assert_eq!(m.remove_boundary_ear(ids[0]), Err(Refusal::LinkCondition));
+    assert!(m == before);
+    m.set_tag(ids[1], VertexTag::Fixed);
+    assert_eq!(m.remove_boundary_ear(ids[1]), Err(Refusal::Protected(VertexTag::Fixed)));
+    m.set_tag(ids[1], VertexTag::Boundary);
+    m.remove_boundary_ear(ids[1]).unwrap();
+    m.validate(Level::Geometry).unwrap();
+    assert_eq!((m.num_vertices(), m.num_faces()), (3, 1));
+    assert!(m.is_boundary_edge(m.find_half_edge(ids[0], ids[2]).unwrap()));
+    // The last triangle stays.
+    assert_eq!(m.remove_boundary_ear(ids[3]), Err(Refusal::TooSmall));
+    m.validate(Level::Geometry).unwrap();
 }

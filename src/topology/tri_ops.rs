@@ -704,4 +704,60 @@ impl<P: MeshPoint> TriMesh<P> {
         self.fix_out(a);
         Ok(v)
     }
+
+    /// Removes the boundary vertex `v` together with its only triangle (a, v, c), whose edge
+    /// a-c joins the boundary (the inverse of [`TriMesh::fill_boundary_ear`]). Used to peel
+    /// off flat ears: three boundary vertices on a straight stretch of boundary joined by a
+    /// triangle of (nearly) no area.
+    ///
+    /// ```text
+    ///     a-----c              a-----c
+    ///      \ f /       ==>
+    ///       \ /                          v and f gone
+    ///        v
+    /// ```
+    /// Refused unless `v` is tagged `Boundary` with exactly one triangle, a and c are
+    /// `Boundary` or `Fixed`, and a-c has a triangle on its other side (so the rest stays).
+    pub fn remove_boundary_ear(&mut self, v: VertexId) -> Result<(), Refusal> {
+        let vx = self.vertices.get(v).ok_or(Refusal::StaleKey)?;
+        if vx.tag != VertexTag::Boundary {
+            return Err(Refusal::Protected(vx.tag));
+        }
+        // v's outgoing boundary half-edge v -> a, then the face's a -> v before it.
+        let t_va = vx.out;
+        if self.face_of(t_va).is_some() {
+            return Err(Refusal::LinkCondition);
+        }
+        let h_av = self.twin(t_va);
+        let f = self.face_of(h_av).ok_or(Refusal::TooSmall)?;
+        let h_vc = self.next(h_av);
+        let h_ca = self.next(h_vc);
+        let t_cv = self.twin(h_vc);
+        // Exactly one triangle: v's other edge is on the boundary too.
+        if self.face_of(t_cv).is_some() {
+            return Err(Refusal::LinkCondition);
+        }
+        let (a, c) = (self.origin(h_av), self.origin(h_ca));
+        for u in [a, c] {
+            if !matches!(self.tag(u), VertexTag::Boundary | VertexTag::Fixed) {
+                return Err(Refusal::Protected(self.tag(u)));
+            }
+        }
+        if self.face_of(self.twin(h_ca)).is_none() {
+            return Err(Refusal::TooSmall);
+        }
+        let before = self.prev(t_cv);
+        let after = self.next(t_va);
+        self.half_edges[before].next = h_ca;
+        self.half_edges[h_ca].next = after;
+        self.half_edges[h_ca].face = None;
+        for x in [h_av, h_vc, t_va, t_cv] {
+            self.half_edges.remove(x);
+        }
+        self.faces.remove(f);
+        self.vertices.remove(v);
+        self.vertices[c].out = h_ca;
+        self.vertices[a].out = after;
+        Ok(())
+    }
 }

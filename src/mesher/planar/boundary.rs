@@ -195,6 +195,9 @@ pub(super) fn settle_boundary(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(
                     continue;
                 }
             }
+            if close_slit(ctx, m, v)? {
+                continue;
+            }
             let g = m.vertex(v).out;
             let e = m.prev(g);
             let targets = [(g, m.dest(g)), (m.twin(e), m.origin(e))];
@@ -207,6 +210,7 @@ pub(super) fn settle_boundary(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(
         }
         ctx.report.ops.flips += ctx.make_delaunay(m);
     }
+    peel_flat_ears(ctx, m)?;
     // What could not be settled is reported, not hidden.
     ctx.report.boundary_nodes_off = m
         .vertex_ids()
@@ -234,4 +238,125 @@ pub(super) fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &
     p.copy_from_slice(&newp);
     let _ = m;
     Ok(())
+}
+
+/// Removes the boundary vertex `v` with its only triangle when that triangle is below
+/// Q_REPAIR and the edge left in its place lies on d = 0 (within the boundary tolerance): a
+/// flat ear on a straight stretch of boundary, or the tip of a zero-width tongue that the
+/// boundary loop makes by running along a straight stretch and back. Forces cannot open such
+/// a triangle (all three vertices are held on the same line) and a collapse along the
+/// boundary is often refused there; the removal changes the covered area by the ear's.
+pub(super) fn peel_flat_ear(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) -> Result<bool, Error> {
+    if !m.contains_vertex(v) || m.tag(v) != VertexTag::Boundary {
+        return Ok(false);
+    }
+    let faces = m.vertex_faces(v);
+    let [f] = faces.as_slice() else {
+        return Ok(false);
+    };
+    if ctx.tri_q(m.face_points(*f)) >= Q_REPAIR {
+        return Ok(false);
+    }
+    let others: Vec<DVec2> = m.face_vertices(*f).into_iter().filter(|&u| u != v).map(|u| m.pos(u)).collect();
+    if ctx.approx_dist((others[0] + others[1]) * 0.5)?.abs() > ctx.geps {
+        return Ok(false);
+    }
+    if m.remove_boundary_ear(v).is_err() {
+        return Ok(false);
+    }
+    ctx.report.ops.collapses += 1;
+    Ok(true)
+}
+
+/// [`peel_flat_ear`] over every boundary vertex until none is left: peeling one ear of a
+/// tongue leaves the next vertex with a single flat triangle.
+pub(super) fn peel_flat_ears(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<usize, Error> {
+    let mut peeled = 0;
+    let mut queue: Vec<VertexId> = m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).collect();
+    while let Some(v) = queue.pop() {
+        if !m.contains_vertex(v) {
+            continue;
+        }
+        let ring = m.neighbours(v);
+        if peel_flat_ear(ctx, m, v)? {
+            peeled += 1;
+            queue.extend(ring.into_iter().filter(|&u| m.contains_vertex(u)));
+        }
+    }
+    if peeled > 0 {
+        ctx.report.ops.flips += ctx.make_delaunay(m);
+    }
+    Ok(peeled)
+}
+
+/// A slit closes when the outside angle at a boundary node off d = 0 is below this (radians).
+const SLIT_ANGLE: f64 = 0.05;
+
+/// Closes a slit: the boundary loop runs from the boundary into the domain to the node `v`
+/// off d = 0 and straight back, its two sides nearly on top of each other (the outside
+/// angle at `v` below SLIT_ANGLE). An ear over `v` makes it interior, and the ear's short
+/// boundary edge collapses, which zips the two sides together. Returns whether it closed.
+pub(super) fn close_slit(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) -> Result<bool, Error> {
+    if m.tag(v) != VertexTag::Boundary || !m.is_boundary_vertex(v) || m.num_faces() < 3 {
+        return Ok(false);
+    }
+    let g = m.vertex(v).out; // v -> c on the boundary
+    let e = m.prev(g); // a -> v
+    let (a, c) = (m.origin(e), m.dest(g));
+    if !matches!(m.tag(a), VertexTag::Boundary | VertexTag::Fixed)
+        || !matches!(m.tag(c), VertexTag::Boundary | VertexTag::Fixed)
+    {
+        return Ok(false);
+    }
+    let pv = m.pos(v);
+    let inside: f64 = m
+        .vertex_faces(v)
+        .iter()
+        .map(|&f| {
+            let vs = m.face_vertices(f);
+            let k = vs.iter().position(|&u| u == v).unwrap_or(0);
+            (m.pos(vs[(k + 1) % 3]) - pv).angle_to(m.pos(vs[(k + 2) % 3]) - pv).abs()
+        })
+        .sum();
+    if 2.0 * std::f64::consts::PI - inside > SLIT_ANGLE {
+        return Ok(false);
+    }
+    let label = m.face(m.face_of(m.twin(e)).expect("boundary edge has a face")).label;
+    let Ok(f) = m.fill_boundary_ear(e, label) else { return Ok(false) };
+    m.set_tag(v, VertexTag::Interior);
+    // The ear's new boundary edge a -> c.
+    let ac = m.face_half_edges(f).into_iter().find(|&h| m.origin(m.twin(h)) == a && m.face_of(m.twin(h)).is_none());
+    let closed = match ac.map(|h| m.twin(h)) {
+        Some(t) => try_collapse(ctx, m, t)?,
+        None => false,
+    };
+    if !closed {
+        // The ear alone would leave a needle: undo it (the vertex goes back to the boundary).
+        if let Some(t) = ac.map(|h| m.twin(h)) {
+            if m.remove_boundary_triangle(t).is_ok() {
+                m.set_tag(v, VertexTag::Boundary);
+            }
+        }
+        return Ok(false);
+    }
+    ctx.report.ops.collapses += 1;
+    Ok(true)
+}
+
+/// [`close_slit`] at every boundary node off d = 0, then [`peel_flat_ears`]: run with density
+/// control, so that a slit or a flat tongue does not stay for the rest of the run. Returns
+/// whether the topology changed.
+pub(super) fn close_slits(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<bool, Error> {
+    let off: Vec<VertexId> = m
+        .vertex_ids()
+        .filter(|&v| m.tag(v) == VertexTag::Boundary && m.is_boundary_vertex(v))
+        .filter(|&v| ctx.approx_dist(m.pos(v)).map(|d| d.abs() > ctx.geps).unwrap_or(false))
+        .collect();
+    let mut changed = false;
+    for v in off {
+        if m.contains_vertex(v) {
+            changed |= close_slit(ctx, m, v)?;
+        }
+    }
+    Ok(peel_flat_ears(ctx, m)? > 0 || changed)
 }

@@ -125,11 +125,19 @@ pub(super) fn density_control(
         }
         let (a, b) = (m.pos(m.origin(h)), m.pos(m.dest(h)));
         let mut mid = (a + b) * 0.5;
+        // A boundary edge splits on its chord, and the new vertex moves onto d = 0 by the
+        // checked relocation (a split straight at the projection checks orientation only,
+        // and can fold the open fans next to it).
         if m.is_boundary_edge(h) {
-            if let Some(q) = ctx.project(mid)? {
-                mid = q;
+            let q = ctx.project(mid)?.unwrap_or(mid);
+            if let Some((v, _)) = split_boundary_at(m, h, q) {
+                ctx.report.ops.splits += 1;
+                changed = true;
+                legalize_vertex(ctx, m, v);
             }
-        } else if m.is_constrained_edge(h) {
+            continue;
+        }
+        if m.is_constrained_edge(h) {
             if let Some(q) = ctx.project_internal(mid)? {
                 mid = q;
             }
@@ -148,6 +156,18 @@ pub(super) fn density_control(
     bad.sort_by(|x, y| x.0.total_cmp(&y.0));
     for (_, f) in bad {
         if !m.contains_face(f) || ctx.tri_q(m.face_points(f)) >= Q_REPAIR {
+            continue;
+        }
+        // A flat ear goes with its middle vertex; otherwise its shortest edge collapses.
+        let mut peeled = false;
+        for u in m.face_vertices(f) {
+            if super::boundary::peel_flat_ear(ctx, m, u)? {
+                peeled = true;
+                break;
+            }
+        }
+        if peeled {
+            changed = true;
             continue;
         }
         let hs = m.face_half_edges(f);

@@ -408,6 +408,13 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 write_back(m, &snap, &p);
                 topo_changed |= density_control(ctx, m, cands, !large)?;
             }
+            if ctx.metric.is_none() {
+                // Every topology change so far wrote the positions back before it.
+                if !topo_changed {
+                    write_back(m, &snap, &p);
+                }
+                topo_changed |= close_slits(ctx, m)?;
+            }
             unit = rest.unit();
             munit = unit;
         }

@@ -1,8 +1,11 @@
 use super::*;
+use crate::quality::triangle_q;
 
 /// Step control: a vertex of a triangle a step would invert steps back halfway at most this
 /// many times, then stays where it was.
 const MAX_HALVINGS: u8 = 2;
+/// A step may not bring a triangle below this quality (see [`Snapshot::guard_inversions`]).
+const FLAT_Q: f64 = 1e-3;
 
 /// Rings around a boundary vertex whose boundary edges its own are tested against after a
 /// suspicious step (see [`Snapshot::boundary_clear`]).
@@ -156,9 +159,14 @@ impl Snapshot {
 
     /// Step control from `old` to `newp` (only the triangles in `subset` when given): a vertex
     /// of a triangle the step would invert steps back halfway, at most MAX_HALVINGS times.
+    /// Also no triangle may turn flat (q below FLAT_Q) in a step: boundary nodes projected onto a
+    /// straight stretch would otherwise lay triangles of three boundary nodes flat on it, which
+    /// no force opens again.
     pub(super) fn guard_inversions(&self, old: &[DVec2], newp: &mut [DVec2], subset: Option<&[u32]>) {
         truss::guard_inversions(&self.tris, subset, old, newp, MAX_HALVINGS, Backoff::PerElement, |q, t| {
-            orient2d(q[t[0] as usize], q[t[1] as usize], q[t[2] as usize]) == Sign::Positive
+            let (a, b, c) = (t[0] as usize, t[1] as usize, t[2] as usize);
+            orient2d(q[a], q[b], q[c]) == Sign::Positive
+                && (triangle_q([q[a], q[b], q[c]]) >= FLAT_Q || triangle_q([old[a], old[b], old[c]]) < FLAT_Q)
         });
     }
 
