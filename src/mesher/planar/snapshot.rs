@@ -197,8 +197,10 @@ impl Snapshot {
 
     /// Step control against folds (with a metric, whose steps are long across the thin
     /// direction): a step can keep every triangle positive and still jump a node over its
-    /// neighbours' fans, so that the mesh winds twice around a vertex. Every vertex next to a
-    /// moved one is checked exactly; the nodes around a vertex that no longer winds once go
+    /// neighbours' fans, so that the mesh winds twice around a vertex, or lay one stretch of
+    /// boundary over another. Every vertex next to a moved one is checked exactly (its fan,
+    /// and at the boundary its two boundary edges against the loop near it, as in
+    /// [`Snapshot::guard_folds_screened`]); the nodes around a vertex that fails go
     /// back to `old` (which is embedded), until none is left (at most 8 rounds, then every
     /// moved node goes back).
     pub(super) fn guard_folds(&self, old: &[DVec2], newp: &mut [DVec2]) -> usize {
@@ -223,7 +225,14 @@ impl Snapshot {
             check.sort_unstable();
             check.dedup();
             let q: &[DVec2] = newp;
-            let bad: Vec<u32> = check.par_iter().copied().filter(|&i| !self.winds_once(q, i as usize)).collect();
+            let bad: Vec<u32> = check
+                .par_iter()
+                .copied()
+                .filter(|&i| {
+                    let i = i as usize;
+                    !self.winds_once(q, i) || !self.loop_clear(q, i) || !self.boundary_clear(q, i)
+                })
+                .collect();
             if bad.is_empty() {
                 break;
             }
