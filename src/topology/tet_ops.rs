@@ -61,6 +61,21 @@ impl TetPatch {
     }
 }
 
+impl TetMesh {
+    /// The worst value of `quality` over the tets a checked patch removes, and over those it
+    /// creates (at their new positions): how a caller judges a patch by its own measure.
+    pub(crate) fn patch_quality(&self, plan: &TetPatch, quality: impl Fn([DVec3; 4]) -> f64) -> (f64, f64) {
+        let old = plan.old.iter().map(|&t| quality(self.tet_points(t))).fold(f64::INFINITY, f64::min);
+        let at = |v: TVertexId| match (plan.add, plan.moved) {
+            (Some((p, _)), _) if v.is_null() => p,
+            (_, Some((w, p))) if w == v => p,
+            _ => self.pos(v),
+        };
+        let new = plan.new.iter().map(|(vs, _)| quality(vs.map(at))).fold(f64::INFINITY, f64::min);
+        (old, new)
+    }
+}
+
 /// The plan of a 2-3 flip.
 ///
 /// ```text

@@ -19,6 +19,8 @@ const TQ_TARGET: f64 = 0.6;
 /// when every new tet keeps a radius ratio above CAP_COLLAPSE_RR.
 const CAP_TQ: f64 = 0.2;
 const CAP_COLLAPSE_RR: f64 = 0.2;
+/// Least gain in the worst tq of the tets it replaces for a collapse of a stuck tet's edge.
+const CROWD_GAIN: f64 = 0.01;
 /// A polish round that starts with the worst tq less than this above the last round's start
 /// is not made (such rounds gain hundredths of a degree at large cost).
 const POLISH_STALL: f64 = 1e-3;
@@ -84,13 +86,19 @@ pub(super) fn improve(ctx: &mut Ctx, m: &mut TetMesh, round: usize) -> Result<us
     }
     changes += coloured_smoothing(ctx, m, Some(&verts), smooth_target)?;
     if round > 0 {
-        for t in left {
+        for &t in &left {
             if m.contains_tet(t) && tet_dihedral_quality(m.tet_points(t)) < TQ_TARGET {
                 for v in m.tet(t).v {
                     if perturb_vertex(ctx, m, v)? {
                         changes += 1;
                     }
                 }
+            }
+        }
+        // What smoothing and perturbation left stuck may be a crowded spot.
+        for t in left {
+            if try_crowd_collapse(ctx, m, t) {
+                changes += 1;
             }
         }
     }
@@ -172,6 +180,39 @@ fn find_swap(ctx: &Ctx, m: &TetMesh, t: TetId) -> Result<Option<Swap>, Error> {
         }
     }
     Ok(None)
+}
+
+/// A tet that swaps and smoothing left below RR_TQ_FLOOR where too many nodes crowd a spot
+/// (a node squeezed between the boundary and the next layer): the collapse of one of its
+/// edges (at the midpoint of two interior ends, or into an end) that raises the worst tq of the tets it replaces
+/// the most, by at least CROWD_GAIN. Returns whether it collapsed one.
+fn try_crowd_collapse(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> bool {
+    if !m.contains_tet(t) || tet_dihedral_quality(m.tet_points(t)) >= RR_TQ_FLOOR {
+        return false;
+    }
+    let tx = *m.tet(t);
+    let mut best: Option<(f64, TetPatch)> = None;
+    for (e, [i, j]) in EDGE_VERTICES.into_iter().enumerate() {
+        let (pi, pj) = (m.pos(tx.v[i]), m.pos(tx.v[j]));
+        for reverse in [false, true] {
+            // The survivor stays where it is unless both ends are interior (a boundary
+            // survivor must stay on d = 0).
+            let stay = if reverse { (tx.v[i], pi) } else { (tx.v[j], pj) };
+            let both_inside = m.tag(tx.v[i]) == VertexTag::Interior && m.tag(tx.v[j]) == VertexTag::Interior;
+            let mid = if both_inside { (pi + pj) * 0.5 } else { stay.1 };
+            for pos in [mid, stay.1] {
+                let Ok(plan) = m.check_collapse(t, e, reverse, pos) else { continue };
+                let (old, new) = m.patch_quality(&plan, tet_dihedral_quality);
+                if new > old + CROWD_GAIN && best.as_ref().is_none_or(|b| new - old > b.0) {
+                    best = Some((new - old, plan));
+                }
+            }
+        }
+    }
+    let Some((_, plan)) = best else { return false };
+    m.apply_patch(plan);
+    ctx.report.ops.collapses += 1;
+    true
 }
 
 /// Applies [`find_swap`]'s choice for `t`, if any.
