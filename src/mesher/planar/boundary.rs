@@ -339,7 +339,6 @@ pub(super) fn close_slit(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) -> 
         }
         return Ok(false);
     }
-    ctx.report.ops.collapses += 1;
     Ok(true)
 }
 
@@ -347,11 +346,12 @@ pub(super) fn close_slit(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) -> 
 /// control, so that a slit or a flat tongue does not stay for the rest of the run. Returns
 /// whether the topology changed.
 pub(super) fn close_slits(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<bool, Error> {
-    let off: Vec<VertexId> = m
-        .vertex_ids()
-        .filter(|&v| m.tag(v) == VertexTag::Boundary && m.is_boundary_vertex(v))
-        .filter(|&v| ctx.approx_dist(m.pos(v)).map(|d| d.abs() > ctx.geps).unwrap_or(false))
-        .collect();
+    let mut off: Vec<VertexId> = Vec::new();
+    for v in m.vertex_ids() {
+        if m.tag(v) == VertexTag::Boundary && m.is_boundary_vertex(v) && ctx.approx_dist(m.pos(v))?.abs() > ctx.geps {
+            off.push(v);
+        }
+    }
     let mut changed = false;
     for v in off {
         if m.contains_vertex(v) {

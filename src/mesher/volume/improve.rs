@@ -182,10 +182,11 @@ fn find_swap(ctx: &Ctx, m: &TetMesh, t: TetId) -> Result<Option<Swap>, Error> {
     Ok(None)
 }
 
-/// A tet that swaps and smoothing left below RR_TQ_FLOOR where too many nodes crowd a spot
-/// (a node squeezed between the boundary and the next layer): the collapse of one of its
-/// edges (at the midpoint of two interior ends, or into an end) that raises the worst tq of the tets it replaces
-/// the most, by at least CROWD_GAIN. Returns whether it collapsed one.
+/// A tet that swaps, smoothing and perturbation left below RR_TQ_FLOOR where too many nodes
+/// crowd a spot (a node squeezed between the boundary and the next layer): the collapse of
+/// one of its edges (at the midpoint of two interior ends, or into an end) that raises the
+/// worst tq of the tets it replaces the most, by at least CROWD_GAIN. Returns whether it
+/// collapsed one.
 fn try_crowd_collapse(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> bool {
     if !m.contains_tet(t) || tet_dihedral_quality(m.tet_points(t)) >= RR_TQ_FLOOR {
         return false;
@@ -194,13 +195,14 @@ fn try_crowd_collapse(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> bool {
     let mut best: Option<(f64, TetPatch)> = None;
     for (e, [i, j]) in EDGE_VERTICES.into_iter().enumerate() {
         let (pi, pj) = (m.pos(tx.v[i]), m.pos(tx.v[j]));
+        // A boundary survivor stays where it is (on d = 0); two interior ends may also meet
+        // halfway.
+        let both_inside = m.tag(tx.v[i]) == VertexTag::Interior && m.tag(tx.v[j]) == VertexTag::Interior;
         for reverse in [false, true] {
-            // The survivor stays where it is unless both ends are interior (a boundary
-            // survivor must stay on d = 0).
-            let stay = if reverse { (tx.v[i], pi) } else { (tx.v[j], pj) };
-            let both_inside = m.tag(tx.v[i]) == VertexTag::Interior && m.tag(tx.v[j]) == VertexTag::Interior;
-            let mid = if both_inside { (pi + pj) * 0.5 } else { stay.1 };
-            for pos in [mid, stay.1] {
+            let stay = if reverse { pi } else { pj };
+            let places: SmallVec<[DVec3; 2]> =
+                if both_inside { smallvec::smallvec![(pi + pj) * 0.5, stay] } else { smallvec::smallvec![stay] };
+            for pos in places {
                 let Ok(plan) = m.check_collapse(t, e, reverse, pos) else { continue };
                 let (old, new) = m.patch_quality(&plan, tet_dihedral_quality);
                 if new > old + CROWD_GAIN && best.as_ref().is_none_or(|b| new - old > b.0) {
