@@ -234,7 +234,11 @@ pub(super) fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &
             newp[i] = q;
         }
     }
-    snap.guard_inversions(&old, &mut newp, None);
+    let metrics = match ctx.metric {
+        Some(_) => Some(old.iter().map(|&x| ctx.metric_at(x)).collect::<Result<Vec<Metric2>, Error>>()?),
+        None => None,
+    };
+    snap.guard_inversions(&old, &mut newp, None, metrics.as_deref());
     p.copy_from_slice(&newp);
     let _ = m;
     Ok(())

@@ -338,7 +338,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         joining_internal.sort_unstable();
         // Step control: no triangle may invert; vertices of offending triangles step back.
         let tris = if full { None } else { Some(snap.triangles_of(&active, &mut tri_marks)) };
-        snap.guard_inversions(&p, &mut newp, tris.as_deref());
+        snap.guard_inversions(&p, &mut newp, tris.as_deref(), metric.map(|_| &mv[..]));
         // Without a metric, screened: only steps that could fold are checked exactly.
         if metric.is_some() {
             snap.guard_folds(&p, &mut newp);

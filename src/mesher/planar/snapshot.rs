@@ -161,12 +161,22 @@ impl Snapshot {
     /// of a triangle the step would invert steps back halfway, at most MAX_HALVINGS times.
     /// Also no triangle may turn flat (q below FLAT_Q) in a step: boundary nodes projected onto a
     /// straight stretch would otherwise lay triangles of three boundary nodes flat on it, which
-    /// no force opens again.
-    pub(super) fn guard_inversions(&self, old: &[DVec2], newp: &mut [DVec2], subset: Option<&[u32]>) {
+    /// no force opens again. With a metric (`metrics`, M at each node), q is measured in M at
+    /// the triangle's first node: an element thin as the metric asks is not flat.
+    pub(super) fn guard_inversions(
+        &self,
+        old: &[DVec2],
+        newp: &mut [DVec2],
+        subset: Option<&[u32]>,
+        metrics: Option<&[Metric2]>,
+    ) {
+        let q_of = |x: &[DVec2], [a, b, c]: [usize; 3]| match metrics {
+            Some(mv) => metric_triangle_q(&mv[a], [x[a], x[b], x[c]]),
+            None => triangle_q([x[a], x[b], x[c]]),
+        };
         truss::guard_inversions(&self.tris, subset, old, newp, MAX_HALVINGS, Backoff::PerElement, |q, t| {
-            let (a, b, c) = (t[0] as usize, t[1] as usize, t[2] as usize);
-            orient2d(q[a], q[b], q[c]) == Sign::Positive
-                && (triangle_q([q[a], q[b], q[c]]) >= FLAT_Q || triangle_q([old[a], old[b], old[c]]) < FLAT_Q)
+            let t = [t[0] as usize, t[1] as usize, t[2] as usize];
+            orient2d(q[t[0]], q[t[1]], q[t[2]]) == Sign::Positive && (q_of(q, t) >= FLAT_Q || q_of(old, t) < FLAT_Q)
         });
     }
 
