@@ -63,6 +63,7 @@ pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Resu
             }
         }
     }
+    keep = open_closed_corners(ctx, &points, &fixed, keep)?;
     keep = drop_islands(&keep, &inside);
     // Pinched vertices (two fans) would break the manifold structure: drop the triangles of
     // every fan but the largest, and repeat until none is left.
@@ -136,6 +137,68 @@ pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Resu
     internal::tag_interface(&mut out);
     restore_fixed(ctx, &mut out)?;
     Ok(out)
+}
+
+/// Directions sampled around a fixed vertex whose fan closed, to find where the outside is.
+const CORNER_SAMPLES: usize = 72;
+
+/// A fixed vertex on the boundary (a hole's corner) whose kept triangles close all the way
+/// around it would end inside the mesh, the hole's wedge there covered. The centroid rule
+/// cannot see it: at a reflex corner a triangle spanning the hole's wedge can have its
+/// centroid inside. Around each such vertex d is sampled on a small circle, and the
+/// triangles whose angle at the vertex holds an outside direction are dropped, opening the
+/// fan over the outside. Fixed points truly inside the domain have no outside direction and
+/// keep their closed fans.
+fn open_closed_corners(
+    ctx: &Ctx,
+    points: &[DVec2],
+    fixed: &[bool],
+    keep: Vec<[usize; 3]>,
+) -> Result<Vec<[usize; 3]>, Error> {
+    if !fixed.iter().any(|&f| f) {
+        return Ok(keep);
+    }
+    let around = Incidence::new(points.len(), &keep);
+    let mut drop = vec![false; keep.len()];
+    for v in (0..points.len()).filter(|&i| fixed[i]) {
+        let fan = around.of(v);
+        if fan.is_empty() {
+            continue;
+        }
+        // The edges v -> a and b -> v of each triangle (a, b the next two, counter-clockwise);
+        // the fan is closed when every a is some triangle's b.
+        let legs: Vec<(usize, usize, usize)> = fan
+            .iter()
+            .map(|&t| {
+                let t = t as usize;
+                let tri = keep[t];
+                let k = (0..3).find(|&k| tri[k] == v).unwrap_or(0);
+                (t, tri[(k + 1) % 3], tri[(k + 2) % 3])
+            })
+            .collect();
+        let closed = legs.iter().all(|&(_, a, _)| legs.iter().any(|&(_, _, b)| b == a));
+        if !closed {
+            continue;
+        }
+        let pv = points[v];
+        let r = 0.25 * legs.iter().map(|&(_, a, _)| points[a].distance(pv)).fold(f64::INFINITY, f64::min);
+        let mut outside = Vec::new();
+        for k in 0..CORNER_SAMPLES {
+            let ang = std::f64::consts::TAU * (k as f64 + 0.5) / CORNER_SAMPLES as f64;
+            let dir = DVec2::new(ang.cos(), ang.sin());
+            if ctx.d(pv + r * dir)? > ctx.geps {
+                outside.push(dir);
+            }
+        }
+        for &(t, a, b) in &legs {
+            let (ea, eb) = (points[a] - pv, points[b] - pv);
+            // Strictly inside the angle from ea to eb (counter-clockwise, below 180 degrees).
+            if outside.iter().any(|u| ea.perp_dot(*u) > 0.0 && u.perp_dot(eb) > 0.0) {
+                drop[t] = true;
+            }
+        }
+    }
+    Ok(keep.into_iter().zip(drop).filter(|(_, d)| !d).map(|(t, _)| t).collect())
 }
 
 /// Whether a fixed point (of `sorted`, sorted by x) lies within the triangle `t`'s box grown

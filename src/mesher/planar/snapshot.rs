@@ -13,6 +13,8 @@ const BOUNDARY_RINGS: usize = 2;
 /// Loop edges on either side of a moved boundary vertex that its own are tested against (see
 /// [`Snapshot::loop_clear`]).
 const LOOP_REACH: usize = 4;
+/// Rounds of the mesh-wide boundary-crossing guard (see [`Snapshot::guard_boundary_crossings`]).
+const GLOBAL_ROUNDS: usize = 16;
 
 /// Between two subdomains (an internal boundary).
 pub(super) const EDGE_INTERFACE: u8 = 2;
@@ -212,8 +214,21 @@ impl Snapshot {
     /// and at the boundary its two boundary edges against the loop near it, as in
     /// [`Snapshot::guard_folds_screened`]); the nodes around a vertex that fails go
     /// back to `old` (which is embedded), until none is left (at most 8 rounds, then every
-    /// moved node goes back).
+    /// moved node goes back). Then boundary edges far apart in the mesh, as there.
     pub(super) fn guard_folds(&self, old: &[DVec2], newp: &mut [DVec2]) -> usize {
+        let mut reverted = self.guard_folds_rings(old, newp);
+        for _ in 0..GLOBAL_ROUNDS {
+            let back = self.guard_boundary_crossings(old, newp);
+            if back == 0 {
+                break;
+            }
+            reverted += back + self.guard_folds_rings(old, newp);
+        }
+        reverted
+    }
+
+    /// [`Snapshot::guard_folds`] within the fans and boundary rings of the moved nodes.
+    fn guard_folds_rings(&self, old: &[DVec2], newp: &mut [DVec2]) -> usize {
         let mut reverted = 0;
         for round in 0..9 {
             let moved: Vec<usize> = (0..old.len()).into_par_iter().filter(|&i| newp[i] != old[i]).collect();
@@ -357,9 +372,66 @@ impl Snapshot {
     /// rounding; the corners of the triangles that fail it, and the open fans of the boundary
     /// vertices next to a moved node, are checked exactly ([`Snapshot::winds_once`]). Nodes
     /// around a fan that does not wind once go back to `old`, then their fans are checked in
-    /// turn (at most 8 rounds, then every moved node goes back). `nodes` lists the nodes
+    /// turn (at most 8 rounds, then every moved node goes back). Then boundary edges far
+    /// apart in the mesh ([`Snapshot::guard_boundary_crossings`]). `nodes` lists the nodes
     /// that may have moved (None: all). Returns how many nodes went back.
     pub(super) fn guard_folds_screened(&self, old: &[DVec2], newp: &mut [DVec2], nodes: Option<&[u32]>) -> usize {
+        let mut reverted = self.guard_folds_local(old, newp, nodes);
+        for _ in 0..GLOBAL_ROUNDS {
+            let back = self.guard_boundary_crossings(old, newp);
+            if back == 0 {
+                break;
+            }
+            reverted += back + self.guard_folds_local(old, newp, nodes);
+        }
+        reverted
+    }
+
+    /// Step control against boundary crossings anywhere in the mesh: the local checks see the
+    /// loop and the rings near a moved boundary vertex, but two stretches of boundary far
+    /// apart in the mesh (the two sides of a gap narrower than the size, closing as their
+    /// rows are pushed onto d = 0) can also come to cross. Every boundary edge with a moved
+    /// end is tested against all boundary edges (boxes on a grid, exact segment tests); the
+    /// stars of the ends of a crossing pair go back to `old`, until none is left (at most
+    /// GLOBAL_ROUNDS pairs, then every moved node goes back). Returns how many nodes went back.
+    fn guard_boundary_crossings(&self, old: &[DVec2], newp: &mut [DVec2]) -> usize {
+        let edges: Vec<[usize; 2]> = (0..self.loop_nbrs.len())
+            .filter(|&i| self.loop_nbrs[i].1 != u32::MAX)
+            .map(|i| [i, self.loop_nbrs[i].1 as usize])
+            .collect();
+        let mut reverted = 0;
+        for _ in 0..GLOBAL_ROUNDS {
+            let moved = |e: [usize; 2]| e.iter().any(|&v| newp[v] != old[v]);
+            if !edges.iter().any(|&e| moved(e)) {
+                return reverted;
+            }
+            let boxes: Vec<crate::topology::Box3> = edges
+                .iter()
+                .map(|&[a, b]| (newp[a].min(newp[b]).extend(0.0), newp[a].max(newp[b]).extend(0.0)))
+                .collect();
+            let q: &[DVec2] = newp;
+            let hit = crate::topology::first_hit(&boxes, 2, |i, j| {
+                let (e, f) = (edges[i], edges[j]);
+                !e.iter().any(|v| f.contains(v))
+                    && (moved(e) || moved(f))
+                    && crate::topology::segments_meet(q[e[0]], q[e[1]], q[f[0]], q[f[1]])
+            });
+            let Some((i, j)) = hit else { return reverted };
+            for v in edges[i].into_iter().chain(edges[j]) {
+                self.revert_star(v, old, newp, |_| reverted += 1);
+            }
+        }
+        for i in 0..old.len() {
+            if newp[i] != old[i] {
+                newp[i] = old[i];
+                reverted += 1;
+            }
+        }
+        reverted
+    }
+
+    /// [`Snapshot::guard_folds_screened`] within the fans and boundary rings of the moved nodes.
+    fn guard_folds_local(&self, old: &[DVec2], newp: &mut [DVec2], nodes: Option<&[u32]>) -> usize {
         let moved: Vec<u32> = match nodes {
             Some(list) => list.par_iter().copied().filter(|&i| newp[i as usize] != old[i as usize]).collect(),
             None => (0..old.len() as u32).into_par_iter().filter(|&i| newp[i as usize] != old[i as usize]).collect(),
