@@ -52,6 +52,7 @@ pub(super) fn change_membership(
     joining: &[usize],
 ) -> Result<bool, Error> {
     let mut changed = false;
+    let mut loops = BoundaryLoops::default();
     for &(i, inner) in leaving {
         let b = snap.ids[i];
         if !m.contains_vertex(b) || m.tag(b) != VertexTag::Boundary || !m.is_boundary_vertex(b) {
@@ -77,11 +78,16 @@ pub(super) fn change_membership(
         if ctx.tri_q([pa, inner, pc]) < EAR_Q {
             continue;
         }
+        // The ear's edge a -> c, and the node's edges on the way, clear the other loops.
+        if loops.crossed(m, &[a, b, c], &[(pa, pc), (pa, inner), (inner, pc)]) {
+            continue;
+        }
         let old = m.pos(b);
         if m.relocate(b, inner).is_err() {
             continue;
         }
         if m.fill_boundary_ear(e, m.face(m.face_of(m.twin(e)).expect("boundary edge has a face")).label).is_ok() {
+            loops.add_at(m, a);
             m.set_tag(b, VertexTag::Interior);
             ctx.left += 1;
             changed = true;
@@ -111,8 +117,14 @@ pub(super) fn change_membership(
             if m.remove_boundary_triangle(t).is_ok() {
                 m.set_tag(v, VertexTag::Boundary);
                 ctx.joined += 1;
+                loops.add_at(m, v);
                 if let Some(q) = ctx.project(m.pos(v))? {
-                    let _ = m.relocate(v, q);
+                    // Onto d = 0 unless that crosses another loop (see [`BoundaryLoops`]).
+                    let g = m.vertex(v).out;
+                    let (p, x) = (m.origin(m.prev(g)), m.dest(g));
+                    if !loops.crossed(m, &[p, v, x], &[(m.pos(p), q), (q, m.pos(x))]) {
+                        let _ = m.relocate(v, q);
+                    }
                 }
                 changed = true;
             }
@@ -186,12 +198,17 @@ pub(super) fn settle_boundary(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(
         if off.is_empty() {
             return Ok(());
         }
+        let mut loops = BoundaryLoops::default();
         for v in off {
             if !m.contains_vertex(v) {
                 continue;
             }
+            // Neither the move nor the merge may cross another loop (see [`BoundaryLoops`]).
+            let g = m.vertex(v).out;
+            let e = m.prev(g);
+            let (a, c) = (m.origin(e), m.dest(g));
             if let Some(q) = ctx.project(m.pos(v))? {
-                if m.relocate(v, q).is_ok() {
+                if !loops.crossed(m, &[a, v, c], &[(m.pos(a), q), (q, m.pos(c))]) && m.relocate(v, q).is_ok() {
                     continue;
                 }
             }
@@ -200,8 +217,11 @@ pub(super) fn settle_boundary(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(
             }
             let g = m.vertex(v).out;
             let e = m.prev(g);
-            let targets = [(g, m.dest(g)), (m.twin(e), m.origin(e))];
-            for (h, w) in targets {
+            let targets = [(g, m.dest(g), m.origin(e)), (m.twin(e), m.origin(e), m.dest(g))];
+            for (h, w, u) in targets {
+                if loops.crossed(m, &[u, v, w], &[(m.pos(u), m.pos(w))]) {
+                    continue;
+                }
                 if m.collapse(h, m.pos(w)).is_ok() {
                     ctx.report.ops.collapses += 1;
                     break;
@@ -239,6 +259,13 @@ pub(super) fn project_boundary(ctx: &Ctx, snap: &Snapshot, p: &mut [DVec2], m: &
         None => None,
     };
     snap.guard_inversions(&old, &mut newp, None, metrics.as_deref());
+    // The force step's fold control too: a projection can fold a fan or lay one stretch of
+    // boundary across another as a step can.
+    if ctx.metric.is_some() {
+        snap.guard_folds(&old, &mut newp);
+    } else {
+        snap.guard_folds_screened(&old, &mut newp, None);
+    }
     p.copy_from_slice(&newp);
     let _ = m;
     Ok(())
@@ -331,7 +358,7 @@ pub(super) fn close_slit(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) -> 
     // The ear's new boundary edge a -> c.
     let ac = m.face_half_edges(f).into_iter().find(|&h| m.origin(m.twin(h)) == a && m.face_of(m.twin(h)).is_none());
     let closed = match ac.map(|h| m.twin(h)) {
-        Some(t) => try_collapse(ctx, m, t)?,
+        Some(t) => try_collapse(ctx, m, t, &mut BoundaryLoops::default())?,
         None => false,
     };
     if !closed {

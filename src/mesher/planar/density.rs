@@ -118,6 +118,7 @@ pub(super) fn density_control(
 ) -> Result<bool, Error> {
     let mut changed = false;
     let Candidates { mut long, mut short, mut bad } = cands;
+    let mut loops = BoundaryLoops::default();
     long.sort_by(|x, y| y.0.total_cmp(&x.0));
     for (_, h) in long {
         if !m.contains_half_edge(h) {
@@ -129,8 +130,16 @@ pub(super) fn density_control(
         // checked relocation (a split straight at the projection checks orientation only,
         // and can fold the open fans next to it).
         if m.is_boundary_edge(h) {
-            let q = ctx.project(mid)?.unwrap_or(mid);
+            let mut q = ctx.project(mid)?.unwrap_or(mid);
+            // The relocation's check sees the edge's own loop; the new edges must also clear
+            // the other loops (a coarse start's edge around a piece the carving left out
+            // projects onto the far side of the domain, across the outer loop).
+            let (va, vb) = (m.origin(h), m.dest(h));
+            if q != mid && loops.crossed(m, &[va, vb], &[(a, q), (q, b)]) {
+                q = mid;
+            }
             if let Some((v, _)) = split_boundary_at(m, h, q) {
+                loops.add_at(m, v);
                 ctx.report.ops.splits += 1;
                 changed = true;
                 legalize_vertex(ctx, m, v);
@@ -174,7 +183,7 @@ pub(super) fn density_control(
         let mut order: Vec<HalfEdgeId> = hs.to_vec();
         order.sort_by(|&x, &y| m.edge_length(x).total_cmp(&m.edge_length(y)));
         for h in order {
-            if try_collapse(ctx, m, h)? {
+            if try_collapse(ctx, m, h, &mut loops)? {
                 changed = true;
                 break;
             }
@@ -188,7 +197,7 @@ pub(super) fn density_control(
             continue;
         }
         let ring: Vec<VertexId> = m.neighbours(m.origin(h)).into_iter().chain(m.neighbours(m.dest(h))).collect();
-        if try_collapse(ctx, m, h)? {
+        if try_collapse(ctx, m, h, &mut loops)? {
             changed = true;
             for v in ring {
                 touched.insert(v, ());
@@ -207,7 +216,12 @@ pub(super) fn density_control(
 
 /// Collapses the edge of `h` in whichever direction the tags allow: an interior vertex goes
 /// into the other end; two boundary vertices on a boundary edge meet at the projected midpoint.
-pub(super) fn try_collapse(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, h: HalfEdgeId) -> Result<bool, Error> {
+pub(super) fn try_collapse(
+    ctx: &mut Ctx,
+    m: &mut TriMesh<DVec2>,
+    h: HalfEdgeId,
+    loops: &mut BoundaryLoops,
+) -> Result<bool, Error> {
     let t = m.twin(h);
     let (a, b) = (m.origin(h), m.dest(h));
     let (ta, tb) = (m.tag(a), m.tag(b));
@@ -240,7 +254,22 @@ pub(super) fn try_collapse(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, h: HalfEdgeId)
         (VertexTag::Fixed, VertexTag::InternalBoundary { .. }) if m.is_constrained_edge(h) => tries.push((t, m.pos(a))),
         _ => {}
     }
+    // A boundary edge u -> w (no face) collapsing to pos leaves the boundary edges
+    // prev -> pos -> next, which must clear the other loops too (see [`BoundaryLoops`]).
+    let open = if m.face_of(h).is_none() {
+        Some(h)
+    } else if m.face_of(t).is_none() {
+        Some(t)
+    } else {
+        None
+    };
+    let around = open.map(|g| (m.origin(m.prev(g)), m.origin(g), m.dest(g), m.dest(m.next(g))));
     for (e, pos) in tries {
+        if let Some((p, u, w, x)) = around {
+            if loops.crossed(m, &[p, u, w, x], &[(m.pos(p), pos), (pos, m.pos(x))]) {
+                continue;
+            }
+        }
         if let Ok(v) = m.collapse(e, pos) {
             ctx.report.ops.collapses += 1;
             legalize_vertex(ctx, m, v);
@@ -255,6 +284,50 @@ pub(super) fn try_collapse(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, h: HalfEdgeId)
 pub(super) fn legalize_vertex(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) {
     let stack = m.star_edges(&[v]);
     ctx.report.ops.flips += ctx.legalize(m, stack);
+}
+
+/// The boundary half-edges (no face) of a mesh, read once when first asked for and kept
+/// current by the caller's splits: the relocation and collapse checks of [`TriMesh`] walk the
+/// edge's own loop only, while a move can also cross another loop (a coarse start's edge
+/// around a piece the carving left out projects onto the far side of the domain, across the
+/// outer loop). Stale entries are skipped.
+#[derive(Default)]
+pub(super) struct BoundaryLoops {
+    edges: Option<Vec<HalfEdgeId>>,
+}
+
+impl BoundaryLoops {
+    /// Records the boundary half-edges at v (after a split made them).
+    pub(super) fn add_at(&mut self, m: &TriMesh<DVec2>, v: VertexId) {
+        if let Some(list) = &mut self.edges {
+            list.extend(m.outgoing(v).into_iter().flat_map(|h| [h, m.twin(h)]).filter(|&h| m.face_of(h).is_none()));
+        }
+    }
+
+    /// Whether the segments `segs` would meet a boundary edge that has no end in `skip` (exact
+    /// segment tests, boxes first).
+    pub(super) fn crossed(&mut self, m: &TriMesh<DVec2>, skip: &[VertexId], segs: &[(DVec2, DVec2)]) -> bool {
+        let list = self.edges.get_or_insert_with(|| m.half_edge_ids().filter(|&h| m.face_of(h).is_none()).collect());
+        let (mut lo, mut hi) = (DVec2::INFINITY, DVec2::NEG_INFINITY);
+        for &(p, q) in segs {
+            lo = lo.min(p).min(q);
+            hi = hi.max(p).max(q);
+        }
+        list.iter().any(|&g| {
+            if !m.contains_half_edge(g) || m.face_of(g).is_some() {
+                return false;
+            }
+            let (u, w) = (m.origin(g), m.dest(g));
+            if skip.contains(&u) || skip.contains(&w) {
+                return false;
+            }
+            let (pu, pw) = (m.pos(u), m.pos(w));
+            if pu.x.max(pw.x) < lo.x || pu.x.min(pw.x) > hi.x || pu.y.max(pw.y) < lo.y || pu.y.min(pw.y) > hi.y {
+                return false;
+            }
+            segs.iter().any(|&(p, q)| crate::topology::segments_meet(p, q, pu, pw))
+        })
+    }
 }
 
 /// Triangles below this quality are repaired by collapsing their shortest edge.
