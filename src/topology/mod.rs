@@ -15,7 +15,7 @@ mod embedding;
 mod fan;
 mod incidence;
 mod intersect;
-pub(crate) use intersect::{first_hit, segments_meet, Box3};
+pub(crate) use intersect::segments_meet;
 mod tet_collapse;
 mod tet_delaunay;
 mod tet_delaunay_kernel;

@@ -52,7 +52,10 @@ pub(super) fn change_membership(
     joining: &[usize],
 ) -> Result<bool, Error> {
     let mut changed = false;
-    let mut loops = BoundaryLoops::default();
+    let mut loops = BoundaryLoops::of_nodes(
+        m,
+        snap.ids.iter().zip(&snap.loop_nbrs).filter(|(_, l)| l.0 != u32::MAX).map(|(&v, _)| v),
+    );
     for &(i, inner) in leaving {
         let b = snap.ids[i];
         if !m.contains_vertex(b) || m.tag(b) != VertexTag::Boundary || !m.is_boundary_vertex(b) {

@@ -297,6 +297,17 @@ pub(super) struct BoundaryLoops {
 }
 
 impl BoundaryLoops {
+    /// The list read from the boundary nodes given (a snapshot's), not from the whole arena:
+    /// a boundary vertex's `out` is its boundary half-edge.
+    pub(super) fn of_nodes(m: &TriMesh<DVec2>, nodes: impl Iterator<Item = VertexId>) -> BoundaryLoops {
+        let edges = nodes
+            .filter(|&v| m.contains_vertex(v))
+            .map(|v| m.vertex(v).out)
+            .filter(|&h| m.face_of(h).is_none())
+            .collect();
+        BoundaryLoops { edges: Some(edges) }
+    }
+
     /// Records the boundary half-edges at v (after a split made them).
     pub(super) fn add_at(&mut self, m: &TriMesh<DVec2>, v: VertexId) {
         if let Some(list) = &mut self.edges {

@@ -37,6 +37,8 @@ pub(super) struct Snapshot {
     pub(super) quad_edges: Vec<HalfEdgeId>,
     /// Boundary neighbours (previous, next along the loop) of boundary vertices.
     pub(super) loop_nbrs: Vec<(u32, u32)>,
+    /// The boundary edges (v, next along the loop) of `loop_nbrs`, for the mesh-wide guard.
+    loop_edges: Vec<[u32; 2]>,
     /// Triangles over a boundary edge a -> b with an interior apex v: (v, a, b).
     pub(super) apexes: Vec<(u32, u32, u32)>,
     /// Neighbours along internal-boundary edges (up to two per vertex, u32::MAX if none).
@@ -153,6 +155,10 @@ impl Snapshot {
             edges,
             quads,
             quad_edges,
+            loop_edges: (0..n as u32)
+                .filter(|&i| loop_nbrs[i as usize].1 != u32::MAX)
+                .map(|i| [i, loop_nbrs[i as usize].1])
+                .collect(),
             loop_nbrs,
             apexes,
             iface_nbrs,
@@ -391,34 +397,22 @@ impl Snapshot {
     /// loop and the rings near a moved boundary vertex, but two stretches of boundary far
     /// apart in the mesh (the two sides of a gap narrower than the size, closing as their
     /// rows are pushed onto d = 0) can also come to cross. Every boundary edge with a moved
-    /// end is tested against all boundary edges (boxes on a grid, exact segment tests); the
+    /// end is tested against all boundary edges ([`first_crossing`]); the
     /// stars of the ends of a crossing pair go back to `old`, until none is left (at most
     /// GLOBAL_ROUNDS pairs, then every moved node goes back). Returns how many nodes went back.
     fn guard_boundary_crossings(&self, old: &[DVec2], newp: &mut [DVec2]) -> usize {
-        let edges: Vec<[usize; 2]> = (0..self.loop_nbrs.len())
-            .filter(|&i| self.loop_nbrs[i].1 != u32::MAX)
-            .map(|i| [i, self.loop_nbrs[i].1 as usize])
-            .collect();
+        let edges: &[[u32; 2]] = &self.loop_edges;
         let mut reverted = 0;
         for _ in 0..GLOBAL_ROUNDS {
-            let moved = |e: [usize; 2]| e.iter().any(|&v| newp[v] != old[v]);
+            let moved = |e: [u32; 2]| e.iter().any(|&v| newp[v as usize] != old[v as usize]);
             if !edges.iter().any(|&e| moved(e)) {
                 return reverted;
             }
-            let boxes: Vec<crate::topology::Box3> = edges
-                .iter()
-                .map(|&[a, b]| (newp[a].min(newp[b]).extend(0.0), newp[a].max(newp[b]).extend(0.0)))
-                .collect();
             let q: &[DVec2] = newp;
-            let hit = crate::topology::first_hit(&boxes, 2, |i, j| {
-                let (e, f) = (edges[i], edges[j]);
-                !e.iter().any(|v| f.contains(v))
-                    && (moved(e) || moved(f))
-                    && crate::topology::segments_meet(q[e[0]], q[e[1]], q[f[0]], q[f[1]])
-            });
+            let hit = first_crossing(edges, q, &moved);
             let Some((i, j)) = hit else { return reverted };
             for v in edges[i].into_iter().chain(edges[j]) {
-                self.revert_star(v, old, newp, |_| reverted += 1);
+                self.revert_star(v as usize, old, newp, |_| reverted += 1);
             }
         }
         for i in 0..old.len() {
@@ -617,4 +611,42 @@ pub(super) fn mean_quality(ctx: &Ctx, snap: &Snapshot, p: &[DVec2]) -> f64 {
         (ctx.tri_q([p[a as usize], p[b as usize], p[c as usize]]), 0.0)
     });
     s / snap.tris.len().max(1) as f64
+}
+
+/// The first pair (in a fixed order) of edges among `edges` at positions q that share no end,
+/// have a moved end (`moved`), and meet (exact segment tests). A sequential sweep over the
+/// boxes sorted by their low x: a boundary has few edges, and a parallel grid would cost more
+/// in waking threads every step than the test itself.
+fn first_crossing(edges: &[[u32; 2]], q: &[DVec2], moved: &dyn Fn([u32; 2]) -> bool) -> Option<(usize, usize)> {
+    let boxes: Vec<(DVec2, DVec2)> = edges
+        .iter()
+        .map(|&[a, b]| {
+            let (a, b) = (q[a as usize], q[b as usize]);
+            (a.min(b), a.max(b))
+        })
+        .collect();
+    let mut order: Vec<u32> = (0..edges.len() as u32).collect();
+    order.sort_unstable_by(|&x, &y| boxes[x as usize].0.x.total_cmp(&boxes[y as usize].0.x).then(x.cmp(&y)));
+    let is_moved: Vec<bool> = edges.iter().map(|&e| moved(e)).collect();
+    for (k, &i) in order.iter().enumerate() {
+        let (i, (lo, hi)) = (i as usize, boxes[i as usize]);
+        for &j in &order[k + 1..] {
+            let (j, (lo2, hi2)) = (j as usize, boxes[j as usize]);
+            if lo2.x > hi.x {
+                break;
+            }
+            if (!is_moved[i] && !is_moved[j]) || lo2.y > hi.y || lo.y > hi2.y {
+                continue;
+            }
+            let (e, f) = (edges[i], edges[j]);
+            if e.iter().any(|v| f.contains(v)) {
+                continue;
+            }
+            let p = |v: u32| q[v as usize];
+            if crate::topology::segments_meet(p(e[0]), p(e[1]), p(f[0]), p(f[1])) {
+                return Some((i, j));
+            }
+        }
+    }
+    None
 }
