@@ -4,7 +4,7 @@
 
 use glam::DVec2;
 use trussmesh::geometry::Circle;
-use trussmesh::mesher::{mesh_2d, Metric2, MetricStats, Options2};
+use trussmesh::mesher::{area, mesh_2d, Metric2, MetricStats, Options2};
 use trussmesh::topology::Level;
 
 const HMIN: f64 = 0.01;
@@ -160,14 +160,7 @@ fn shock_family(cases: &[(f64, f64, f64)]) {
         let stats = MetricStats::of(&out.mesh, &m);
         let est = estimate(&m);
         let n = out.mesh.num_faces() as f64;
-        let area: f64 = out
-            .mesh
-            .face_ids()
-            .map(|f| {
-                let [a, b, c] = out.mesh.face_points(f);
-                0.5 * (b - a).perp_dot(c - a)
-            })
-            .sum();
+        let area = area(&out.mesh);
         eprintln!(
             "| {hmin} | {:.0}:1 | {amp} sin({freq} pi x) | {n} | {est:.0} | {:.2} | {:.1}% | {area:.6} | {:.2} |",
             0.1 / hmin,
@@ -226,14 +219,7 @@ fn constant_metric_family(quality: bool) {
             continue;
         }
         let stats = MetricStats::of(&out.mesh, &m);
-        let area: f64 = out
-            .mesh
-            .face_ids()
-            .map(|f| {
-                let [a, b, c] = out.mesh.face_points(f);
-                0.5 * (b - a).perp_dot(c - a)
-            })
-            .sum();
+        let area = area(&out.mesh);
         eprintln!(
             "| {ratio:.1}:1 | {:.0} | {long:.2} | {} | {:.1}% | {area:.4} | {:.3} |",
             turn.to_degrees(),

@@ -155,6 +155,20 @@ fn q_floor(min_angle_deg: f64) -> f64 {
     0.8 * q
 }
 
+/// Meshes and prints one row and says whether it passes every check (a mesher error fails).
+fn row_passes(name: &str, g: &Polygons2, h0: f64) -> bool {
+    match try_mesh_row(name, g, h0) {
+        Ok(r) => {
+            print(&r);
+            std::panic::catch_unwind(|| check_row(&r, true)).is_ok()
+        }
+        Err(e) => {
+            println!("| {name} | mesher error: {e} |");
+            false
+        }
+    }
+}
+
 fn check_row(r: &Row, q_min: bool) {
     assert!(r.corner_err <= 1e-12, "{}: a corner {:.1e} from a fixed node", r.name, r.corner_err);
     assert_eq!(r.buried, 0, "{}: corners inside the mesh, not on its boundary", r.name);
@@ -315,17 +329,8 @@ fn square_with_two_holes_at_many_sizes() {
     println!("{HEADER}");
     let mut failed = Vec::new();
     for h0 in [0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.1] {
-        match try_mesh_row(&format!("two holes, h0 {h0}"), &g, h0) {
-            Ok(r) => {
-                print(&r);
-                if std::panic::catch_unwind(|| check_row(&r, true)).is_err() {
-                    failed.push(h0);
-                }
-            }
-            Err(e) => {
-                println!("| two holes, h0 {h0} | mesher error: {e} |");
-                failed.push(h0);
-            }
+        if !row_passes(&format!("two holes, h0 {h0}"), &g, h0) {
+            failed.push(h0);
         }
     }
     assert!(failed.is_empty(), "failed at h0 {failed:?}");
@@ -370,17 +375,8 @@ fn random_plates_with_holes() {
         let g = poly(&loops);
         let h0 = (rng.range(0.04, 0.1) * 1000.0).round() / 1000.0;
         let name = format!("plate {k}, {n_holes} holes, h0 {h0}");
-        match try_mesh_row(&name, &g, h0) {
-            Ok(r) => {
-                print(&r);
-                if std::panic::catch_unwind(|| check_row(&r, true)).is_err() {
-                    failed.push(name);
-                }
-            }
-            Err(e) => {
-                println!("| {name} | mesher error: {e} |");
-                failed.push(name);
-            }
+        if !row_passes(&name, &g, h0) {
+            failed.push(name);
         }
     }
     assert!(failed.is_empty(), "failed: {failed:?}");
