@@ -103,12 +103,14 @@ pub(super) fn change_membership(
         if !m.contains_vertex(v) || m.tag(v) != VertexTag::Interior || m.is_boundary_vertex(v) {
             continue;
         }
-        // The worst triangle with v as apex over a boundary edge.
+        // The worst triangle with v as apex over a boundary edge that v stands over: v's
+        // foot on the edge's line falls between its ends. Over a needle's short base (v
+        // beyond either end) the loop would run out to v and straight back, a slit.
         let mut best: Option<(f64, HalfEdgeId)> = None;
         for x in m.outgoing(v) {
             if let Some(f) = m.face_of(x) {
                 let opp = m.twin(m.next(x));
-                if m.face_of(opp).is_none() {
+                if m.face_of(opp).is_none() && stands_over(m.pos(v), m.pos(m.origin(opp)), m.pos(m.dest(opp))) {
                     let q = ctx.tri_q(m.face_points(f));
                     if best.is_none_or(|(bq, _)| q < bq) {
                         best = Some((q, opp));
@@ -117,23 +119,35 @@ pub(super) fn change_membership(
             }
         }
         if let Some((_, t)) = best {
+            let label = m.face(m.face_of(m.twin(t)).expect("an interior edge has a face")).label;
             if m.remove_boundary_triangle(t).is_ok() {
-                m.set_tag(v, VertexTag::Boundary);
-                ctx.joined += 1;
-                loops.add_at(m, v);
-                if let Some(q) = ctx.project(m.pos(v))? {
-                    // Onto d = 0 unless that crosses another loop (see [`BoundaryLoops`]).
-                    let g = m.vertex(v).out;
-                    let (p, x) = (m.origin(m.prev(g)), m.dest(g));
-                    if !loops.crossed(m, &[p, v, x], &[(m.pos(p), q), (q, m.pos(x))]) {
-                        let _ = m.relocate(v, q);
+                // Onto d = 0 unless that crosses another loop (see [`BoundaryLoops`]) or
+                // inverts a triangle; else the triangle goes back: a node left on the loop
+                // inside the domain is a notch that nothing projects again.
+                let g = m.vertex(v).out;
+                let (p, x) = (m.origin(m.prev(g)), m.dest(g));
+                let onto = match ctx.project(m.pos(v))? {
+                    Some(q) => {
+                        !loops.crossed(m, &[p, v, x], &[(m.pos(p), q), (q, m.pos(x))]) && m.relocate(v, q).is_ok()
                     }
+                    None => false,
+                };
+                if onto || m.fill_boundary_ear(m.prev(g), label).is_err() {
+                    m.set_tag(v, VertexTag::Boundary);
+                    ctx.joined += 1;
+                    loops.add_at(m, v);
+                    changed = true;
                 }
-                changed = true;
             }
         }
     }
     Ok(changed)
+}
+
+/// Whether the foot of `v` on the line through `a` and `b` lies strictly between them.
+fn stands_over(v: DVec2, a: DVec2, b: DVec2) -> bool {
+    let t = (v - a).dot(b - a);
+    t > 0.0 && t < (b - a).length_squared()
 }
 
 /// Interior nodes that the forces push across an internal boundary join it (seed 3.4: "if a

@@ -507,10 +507,26 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     let mu = metric.map(|_| munit);
     let band = if metric.is_some() { METRIC_BAND } else { FRESH_BAND };
     let cands = density_candidates(ctx, &snap, &p, unit, mu, band)?;
-    // The global pass follows.
-    density_control(ctx, m, cands, false)?;
-    ctx.report.ops.flips += ctx.make_delaunay(m);
+    // The global pass follows. No force step follows it either, so a split or collapse
+    // here is final as made: the pass is kept only if it leaves the worst triangle no worse
+    // (a run stopped by the iteration cap, far from rest, can have long edges whose split
+    // would leave a sliver behind).
+    if !cands.is_empty() {
+        let q_before = state_q_min(ctx, &snap, &p);
+        let (kept, ops) = (m.clone(), ctx.report.ops);
+        density_control(ctx, m, cands, false)?;
+        ctx.report.ops.flips += ctx.make_delaunay(m);
+        if mesh_q_min(ctx, m) < q_before {
+            *m = kept;
+            ctx.report.ops = ops;
+        }
+    }
     settle_boundary(ctx, m)?;
     ctx.report.stopped(iter, stop);
     Ok(())
+}
+
+/// The smallest triangle quality of `m` (in the metric, if any).
+fn mesh_q_min(ctx: &Ctx, m: &TriMesh<DVec2>) -> f64 {
+    m.face_ids().map(|f| ctx.tri_q(m.face_points(f))).fold(f64::INFINITY, f64::min)
 }
