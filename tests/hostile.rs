@@ -244,34 +244,18 @@ fn run(c: &Case, dir: &std::path::Path, k: usize) -> Outcome {
     Outcome { code, what, warned, quality: q, surface, three_d }
 }
 
-/// Inputs the meshers still fail on: the output check refuses the mesh (exit 1, the broken
-/// invariant named) where the rule wants a mesh or a clear exit 2. They run in the table and
-/// in [`known_defects_give_a_mesh_or_a_clear_error`], which is ignored until they are fixed.
-const KNOWN_DEFECTS: [&str; 2] = ["shell 0.3 thick", "shell 0.01 thick"];
-
 #[test]
 fn hostile_inputs_give_a_mesh_or_a_clear_error() {
-    hostile(false);
+    hostile();
 }
 
-#[test]
-#[ignore = "open defects: the 0.3 and 0.01 spherical shells self-intersect (SelfIntersection); each exits 1 naming the invariant"]
-fn known_defects_give_a_mesh_or_a_clear_error() {
-    hostile(true);
-}
-
-/// Runs every case (or with `only_defects` the known defects alone) and checks the rule: exit
-/// 0 at or above the quality floor or with a warning, or exit 2 with a clear message. A known
-/// defect in the full run must at least exit 1 naming the broken invariant.
-fn hostile(only_defects: bool) {
-    let dir = std::env::temp_dir().join(format!("trussmesh-hostile-{}-{only_defects}", std::process::id()));
+/// Runs every case and checks the rule: exit 0 at or above the quality floor or with a
+/// warning, or exit 2 with a clear message.
+fn hostile() {
+    let dir = std::env::temp_dir().join(format!("trussmesh-hostile-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let mut cases = cases();
+    let cases = cases();
     assert!(cases.len() >= 60, "{} cases", cases.len());
-    if only_defects {
-        cases.retain(|c| KNOWN_DEFECTS.contains(&c.label.as_str()));
-        assert_eq!(cases.len(), KNOWN_DEFECTS.len());
-    }
     let mut table = String::from("| family | input | exit | what it gets |\n|---|---|---|---|\n");
     let mut bad = Vec::new();
     for (k, c) in cases.iter().enumerate() {
@@ -299,16 +283,11 @@ fn hostile(only_defects: bool) {
                     bad.push(format!("{}: unclear error: {}", c.label, o.what));
                 }
             }
-            1 if !only_defects && KNOWN_DEFECTS.contains(&c.label.as_str()) => {
-                if !o.what.contains("invariant") {
-                    bad.push(format!("{}: a known defect no longer names its invariant: {}", c.label, o.what));
-                }
-            }
             _ => bad.push(format!("{}: exit {}: {}", c.label, o.code, o.what)),
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
-    if !only_defects && std::env::var_os("TRUSSMESH_WRITE_DOCS").is_some() {
+    if std::env::var_os("TRUSSMESH_WRITE_DOCS").is_some() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/quality.md");
         let doc = std::fs::read_to_string(path).unwrap();
         let (start, end) = ("<!-- hostile table start -->\n", "<!-- hostile table end -->");

@@ -309,3 +309,75 @@ fn progress_reports_every_stage_in_order() {
     let plain = mesh_surface(&sphere, &uniform(0.1, bbox(1.2))).unwrap();
     assert_eq!(out.mesh.to_arrays().points, plain.mesh.to_arrays().points);
 }
+
+/// A spherical shell of mid-radius 1 and thickness `t`.
+fn shell(t: f64) -> impl Fn(DVec3) -> f64 + Sync {
+    move |p: DVec3| (p.length() - 1.0 - 0.5 * t).max(1.0 - 0.5 * t - p.length())
+}
+
+/// Shells and gaps near the size (h0 0.1): from two edges across they mesh as two closed
+/// sheets (Euler characteristic 4, no self-intersection: the mesher's final check); thinner
+/// ones are refused with the thickness named. Before the start level kept two edges across,
+/// the shell 0.3 thick (started at 2 h0) intersected itself.
+#[test]
+fn thin_shells_and_close_balls_mesh_or_name_the_thickness() {
+    let h0 = 0.1;
+    println!("| case | vertices | Euler | min angle | mean q | size dev |");
+    println!("|---|---|---|---|---|---|");
+    let mut meshed: Vec<(String, SurfaceOutput)> = Vec::new();
+    for t in [0.2, 0.25, 0.3, 0.4, 0.5] {
+        let out = mesh_surface(&shell(t), &uniform(h0, bbox(1.4))).unwrap_or_else(|e| panic!("shell {t}: {e}"));
+        meshed.push((format!("shell {t} thick"), out));
+    }
+    for gap in [0.15, 0.2, 0.3] {
+        let c = 0.5 + 0.5 * gap;
+        let balls =
+            move |p: DVec3| (p - DVec3::new(c, 0.0, 0.0)).length().min((p + DVec3::new(c, 0.0, 0.0)).length()) - 0.5;
+        let out = mesh_surface(&balls, &uniform(h0, bbox(1.4))).unwrap_or_else(|e| panic!("balls {gap} apart: {e}"));
+        meshed.push((format!("balls {gap} apart"), out));
+    }
+    for (name, out) in &meshed {
+        let q = &out.report.quality;
+        println!(
+            "| {name} | {} | {} | {:.1} | {:.4} | {:.1}% |",
+            q.vertices,
+            q.euler,
+            q.min_angle,
+            q.mean_q,
+            100.0 * q.circumradius_deviation
+        );
+        out.mesh.validate(Level::Topology).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(q.closed_manifold && q.inward_faces == 0, "{name}");
+        assert_eq!(q.euler, 4, "{name}: two spheres");
+        assert!(q.min_angle >= 35.0, "{name}: min angle {}", q.min_angle);
+    }
+    for t in [0.01, 0.02, 0.05, 0.12, 0.15] {
+        match mesh_surface(&shell(t), &uniform(h0, bbox(1.4))) {
+            Err(Error::BadSize(msg)) => {
+                println!("| shell {t} thick | refused: {msg} |");
+                assert!(msg.contains("comes back within"), "shell {t}: {msg}");
+                let named: f64 =
+                    msg.split("within ").nth(1).and_then(|s| s.split(' ').next()).unwrap().parse().unwrap();
+                assert!((named - t).abs() < 1e-3, "shell {t}: named {named}");
+            }
+            Err(e) => panic!("shell {t}: not the thickness named: {e}"),
+            Ok(out) => {
+                let q = &out.report.quality;
+                println!(
+                    "| shell {t} thick | {} | {} | {:.1} | {:.4} | - |",
+                    q.vertices, q.euler, q.min_angle, q.mean_q
+                );
+                assert_eq!(q.euler, 4, "shell {t}");
+            }
+        }
+    }
+}
+
+/// A shell exactly one size thick runs for minutes (the force loop's flips and projections on
+/// a mesh whose nodes move between the sheets); it must end in a mesh or the refusal above.
+#[test]
+#[ignore = "open defect: the shell 0.1 thick at h0 0.1 ran past 60 s without ending (before and after the thickness check)"]
+fn a_shell_one_size_thick_ends() {
+    let r = mesh_surface(&shell(0.1), &uniform(0.1, bbox(1.4)));
+    assert!(matches!(r, Ok(_) | Err(Error::BadSize(_))), "{:?}", r.err());
+}

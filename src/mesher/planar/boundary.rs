@@ -124,6 +124,7 @@ pub(super) fn change_membership(
                 // Onto d = 0 unless that crosses another loop (see [`BoundaryLoops`]) or
                 // inverts a triangle; else the triangle goes back: a node left on the loop
                 // inside the domain is a notch that nothing projects again.
+                m.set_tag(v, VertexTag::Boundary);
                 let g = m.vertex(v).out;
                 let (p, x) = (m.origin(m.prev(g)), m.dest(g));
                 let onto = match ctx.project(m.pos(v))? {
@@ -133,10 +134,11 @@ pub(super) fn change_membership(
                     None => false,
                 };
                 if onto || m.fill_boundary_ear(m.prev(g), label).is_err() {
-                    m.set_tag(v, VertexTag::Boundary);
                     ctx.joined += 1;
                     loops.add_at(m, v);
                     changed = true;
+                } else {
+                    m.set_tag(v, VertexTag::Interior);
                 }
             }
         }

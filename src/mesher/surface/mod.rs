@@ -212,7 +212,24 @@ fn mesh_surface_held(
     // The promise of a level-set surface: closed, oriented, manifold, not self-intersecting.
     if let Err(e) = m.validate_closed_surface() {
         let e = Error::broken("the finished surface is invalid", e);
-        return if held { Ok(Err(e)) } else { Err(e) };
+        if held {
+            return Ok(Err(e));
+        }
+        // Sheets closer than two edges: the input asks for a size it cannot be meshed at.
+        let on: Vec<DVec3> = m.vertex_ids().map(|v| m.pos(v)).collect();
+        return Err(match geom::thinnest(phi, &on, hmin, start::COARSE_ACROSS * hmin, tol) {
+            Some(t) => Error::BadSize(format!(
+                "phi = 0 comes back within {:.3e} of itself near ({:.4}, {:.4}, {:.4}): a shell or gap thinner than \
+                 two edges of the size {hmin:.3e}, across which nodes land on the wrong sheet (the mesh made intersects itself); \
+                 mesh with h0 at most {:.3e}",
+                t.across,
+                t.at.x,
+                t.at.y,
+                t.at.z,
+                0.5 * t.across
+            )),
+            None => e,
+        });
     }
     st.kept_iteration = kept;
     report.stages = Some(st);

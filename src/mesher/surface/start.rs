@@ -33,6 +33,10 @@ const MAX_LEVELS: u32 = 3;
 const REFERENCE_GRID_NODES: u64 = 16_000_000;
 /// Largest turn of the normal along one edge of the coarsest start mesh, radians.
 const MAX_TURN: f64 = 0.4;
+/// Edges of the coarse start level across the thinnest sheet or gap, at least (and of the
+/// finest: a finished surface that intersects itself where the sheets are closer is refused
+/// with the thickness named).
+pub(super) const COARSE_ACROSS: f64 = 2.0;
 
 /// A triangle soup welded by grid edge: points and outward-oriented triangles.
 pub struct Marched {
@@ -219,17 +223,17 @@ pub(super) fn start_mesh(
         return Ok((m, reference, true));
     }
     // The coarse level must still follow the surface: at most MAX_TURN radians per edge.
-    let curvatures: Vec<f64> = fine
-        .points
-        .par_iter()
-        .map(|&p| Ok(geom::max_curvature(phi, project(phi, p, tol)?).abs()))
-        .collect::<Result<_, Error>>()?;
-    let kmax = curvatures.iter().fold(0.0f64, |a, &b| a.max(b));
+    let on: Vec<DVec3> = fine.points.par_iter().map(|&p| project(phi, p, tol)).collect::<Result<_, Error>>()?;
+    let kmax = on.par_iter().map(|&p| geom::max_curvature(phi, p).abs()).reduce(|| 0.0, f64::max);
+    // And keep COARSE_ACROSS edges across every sheet and every gap between sheets: a shell
+    // 3 h thick, started at 2 h, had nodes projected onto the other sheet (a self-intersection).
+    let coarsest = hmin * (1u32 << MAX_LEVELS) as f64;
+    let thin = geom::thinnest(phi, &on, hmin, COARSE_ACROSS * coarsest, tol).map_or(f64::INFINITY, |t| t.across);
     let mut levels = reference;
     let mut marched = fine;
     for k in (reference + 1..=MAX_LEVELS).rev() {
         let hk = hmin * (1u32 << k) as f64;
-        if hk * kmax > MAX_TURN {
+        if hk * kmax > MAX_TURN || COARSE_ACROSS * hk > thin {
             continue;
         }
         let coarse = march(phi, bbox, hk);
