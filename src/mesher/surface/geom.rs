@@ -129,9 +129,9 @@ pub fn max_curvature(phi: &dyn Implicit3, p: DVec3) -> f64 {
 /// Distances along the normal, in units of the size, at which [`thinnest`] samples phi.
 const THICKNESS_SAMPLES: [f64; 14] = [0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0];
 
-/// The thinnest sheet or gap met from the points `on` of phi = 0 (a lower bound, and the point
+/// The thinnest sheet or gap met from the points `on` of phi = 0 (its thickness, and the point
 /// it was met from): from each point, phi is sampled along the unit normal inward and outward
-/// at [`THICKNESS_SAMPLES`] times `h` up to `reach`, and the first sample on the other side
+/// at 0.25 to 32 times `h` up to `reach`, and the first sample on the other side
 /// (beyond `tol` in distance, as far as |grad phi| tells) brackets the crossing, found by
 /// bisection; the smallest such distance is returned. A shell thinner than a level's edges, or
 /// two sheets closer than that, let a node's projection land on the wrong sheet. `None` when
