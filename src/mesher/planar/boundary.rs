@@ -138,6 +138,8 @@ pub(super) fn change_membership(
                     loops.add_at(m, v);
                     changed = true;
                 } else {
+                    // The restored edge p -> x is a new half-edge: the loops must see it.
+                    loops.add_at(m, p);
                     m.set_tag(v, VertexTag::Interior);
                 }
             }
