@@ -373,11 +373,18 @@ fn thin_shells_and_close_balls_mesh_or_name_the_thickness() {
     }
 }
 
-/// A shell exactly one size thick runs for minutes (the force loop's flips and projections on
-/// a mesh whose nodes move between the sheets); it must end in a mesh or the refusal above.
+/// A shell exactly one size thick ran for minutes: nodes moving between the sheets made
+/// density control split without end (30,000 to 87,000 vertices in 80 iterations). The force
+/// loop now stops a mesh that runs away, and the run ends in a mesh or the refusal above, with
+/// the thickness named.
 #[test]
-#[ignore = "open defect: the shell 0.1 thick at h0 0.1 ran past 60 s without ending (before and after the thickness check)"]
 fn a_shell_one_size_thick_ends() {
+    let t0 = std::time::Instant::now();
     let r = mesh_surface(&shell(0.1), &uniform(0.1, bbox(1.4)));
-    assert!(matches!(r, Ok(_) | Err(Error::BadSize(_))), "{:?}", r.err());
+    println!("shell 0.1 thick at h0 0.1: {:.1} s, {:?}", t0.elapsed().as_secs_f64(), r.as_ref().err());
+    match r {
+        Ok(out) => assert_eq!(out.report.quality.euler, 4),
+        Err(Error::BadSize(msg)) => assert!(msg.contains("comes back within"), "{msg}"),
+        Err(e) => panic!("neither a mesh nor the thickness named: {e}"),
+    }
 }

@@ -31,6 +31,13 @@ const FINE_PATIENCE: usize = 5;
 const SCORE_STEP: f64 = 1e-3;
 /// Triangles below this quality have their edges tried for flips after every force step.
 const WATCH_Q: f64 = 0.8;
+/// A force loop whose mesh grows past this many times its vertices at the start (plus
+/// GROWTH_SLACK) has run away: density control at the loop's own sizes keeps the count
+/// near the start's, so such growth means nodes jumping between sheets closer than the edges
+/// (a shell one edge thick grew from 30,000 to 71,000 vertices in 60 iterations and went on).
+const GROWTH_CAP: usize = 2;
+/// See GROWTH_CAP: small meshes may grow more before it counts.
+const GROWTH_SLACK: usize = 1000;
 
 /// The patience of a force loop (see PATIENCE): the iterations without progress it allows, and
 /// the rise of the score that counts as progress. `coarsest` is the level the start mesh was
@@ -57,6 +64,9 @@ pub(super) struct ForceRun {
     pub(super) plateau: bool,
     /// Moves undone because they would fold a triangle.
     pub(super) undone: usize,
+    /// The loop stopped because the mesh ran away (GROWTH_CAP): the vertex counts at its start
+    /// and when it stopped. The mesh kept is then meaningless.
+    pub(super) runaway: Option<(usize, usize)>,
 }
 
 /// The truss iteration at the sizes `size`: force steps, flips when nodes may have moved TTOL h
@@ -78,8 +88,16 @@ pub(super) fn force_loop(
     let mut plateau = truss::Plateau::since_mark(step, patience, best.0);
     // Largest possible movement of any node since the last flip sweep, relative to h.
     let mut since_flips = 0.0;
-    let mut run =
-        ForceRun { mesh: TriMesh::new(), iterations: 0, kept: 0, converged: false, plateau: false, undone: 0 };
+    let mut run = ForceRun {
+        mesh: TriMesh::new(),
+        iterations: 0,
+        kept: 0,
+        converged: false,
+        plateau: false,
+        undone: 0,
+        runaway: None,
+    };
+    let start_vertices = m.num_vertices();
     for it in 1..=opts.max_iter {
         run.iterations = it;
         let moved = force_step(&mut m, phi, size, opts, tol, &mut run.undone)?;
@@ -91,8 +109,18 @@ pub(super) fn force_loop(
         let late = it + 3 * DENSITY_EVERY > opts.max_iter;
         if it % DENSITY_EVERY == 0 && !late && density_control(&mut m, phi, size, tol, counts)? > 0 {
             since_flips = 0.0;
+            if m.num_vertices() > GROWTH_CAP * start_vertices + GROWTH_SLACK {
+                run.runaway = Some((start_vertices, m.num_vertices()));
+                break;
+            }
         }
         let (sc, worst) = score_and_worst(&m, size, WATCH_Q);
+        if std::env::var_os("TRUSSMESH_TRACE").is_some() && it % 20 == 0 {
+            eprintln!(
+                "surface iter {it}: {} vertices (start {start_vertices}), score {sc:.4}, moved {moved:.2e}",
+                m.num_vertices()
+            );
+        }
         // Between the sweeps, the edges of the worst triangles are tried after every step.
         let mut no_valences = SecondaryMap::new();
         for f in worst {
@@ -118,7 +146,7 @@ pub(super) fn force_loop(
             break;
         }
     }
-    if run.converged {
+    if run.converged || run.runaway.is_some() {
         run.kept = run.iterations;
         run.mesh = m;
     } else {

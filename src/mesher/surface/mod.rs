@@ -94,6 +94,26 @@ fn held_runaway(start: usize, now: usize) -> Error {
     Error::internal(format!("holding sharp features made the surface grow from {start} to {now} vertices"))
 }
 
+/// Sheets closer than two edges: the input asks for a size it cannot be meshed at, and the
+/// error says so with the thickness and where; `otherwise` when no such place is found near
+/// the nodes of `m`.
+fn too_thin_or(phi: &dyn Implicit3, m: &TriMesh<DVec3>, hmin: f64, tol: f64, otherwise: Error) -> Error {
+    let on: Vec<DVec3> = m.vertex_ids().map(|v| m.pos(v)).collect();
+    match geom::thinnest(phi, &on, hmin, start::COARSE_ACROSS * hmin, tol) {
+        Some(t) => Error::BadSize(format!(
+            "phi = 0 comes back within {:.3e} of itself near ({:.4}, {:.4}, {:.4}): a shell or gap thinner than \
+             two edges of the size {hmin:.3e}, across which nodes land on the wrong sheet; \
+             mesh with h0 at most {:.3e}",
+            t.across,
+            t.at.x,
+            t.at.y,
+            t.at.z,
+            0.5 * t.across
+        )),
+        None => otherwise,
+    }
+}
+
 /// Projection tolerance, in units of the smallest size (|phi| / |grad phi|).
 const PROJECT_TOL: f64 = 1e-9;
 
@@ -162,6 +182,16 @@ fn mesh_surface_held(
         lap(&mut st, 1);
         let patience = equilibrium::patience(coarsest, levels);
         let run = equilibrium::force_loop(m, phi, &level_size, opts, tol, patience, &mut counts)?;
+        if let Some((from, to)) = run.runaway {
+            if held {
+                return Ok(Err(held_runaway(from, to)));
+            }
+            let e = Error::BadSize(format!(
+                "the surface mesh ran away at the size {:.3e} (from {from} to {to} vertices in one force loop)",
+                level_size.min()
+            ));
+            return Err(too_thin_or(phi, &run.mesh, hmin, tol, e));
+        }
         m = run.mesh;
         counts.undone += run.undone;
         if held && m.num_vertices() > HELD_GROWTH * start_vertices + 1000 {
@@ -215,21 +245,7 @@ fn mesh_surface_held(
         if held {
             return Ok(Err(e));
         }
-        // Sheets closer than two edges: the input asks for a size it cannot be meshed at.
-        let on: Vec<DVec3> = m.vertex_ids().map(|v| m.pos(v)).collect();
-        return Err(match geom::thinnest(phi, &on, hmin, start::COARSE_ACROSS * hmin, tol) {
-            Some(t) => Error::BadSize(format!(
-                "phi = 0 comes back within {:.3e} of itself near ({:.4}, {:.4}, {:.4}): a shell or gap thinner than \
-                 two edges of the size {hmin:.3e}, across which nodes land on the wrong sheet (the mesh made intersects itself); \
-                 mesh with h0 at most {:.3e}",
-                t.across,
-                t.at.x,
-                t.at.y,
-                t.at.z,
-                0.5 * t.across
-            )),
-            None => e,
-        });
+        return Err(too_thin_or(phi, &m, hmin, tol, e));
     }
     st.kept_iteration = kept;
     report.stages = Some(st);
