@@ -76,7 +76,6 @@ fn feature_gap(input: &TriSurface, out: &TriSurface, h0: f64) -> (f64, usize) {
 
 /// The target: every input feature edge within 0.05 h of an output edge chain.
 #[test]
-#[ignore = "not reached: on the part at h0 = 0.1 the input's feature curves are up to 0.28 h0 from the tet mesh boundary's feature edges (11 output corners for 8)"]
 fn volume_keeps_feature_curves() {
     let surf = part();
     let out = mesh_3d(&surf, &surf.volume_options(0.1, None, Some(DEFAULT_FEATURE_ANGLE))).unwrap();
@@ -171,7 +170,6 @@ fn surface_remeshes_triangulated_input() {
 /// more, mean q 0.97 or more, size deviation at most 8%, no self-intersection, the input's Euler
 /// characteristic, every input feature edge within 0.05 h of an output feature edge).
 #[test]
-#[ignore = "the surface mesher holds the sharp features it finds from phi, not yet the input's feature curves: on the part at h0 = 0.1 min angle 41.5, mean q 0.9829, size deviation 6.9%, Euler characteristic kept and no self-intersection, but input feature edges up to 0.67 h0 from the output's feature edges (149 output corners)"]
 fn surface_remeshes_sharp_input() {
     let surf = part();
     let out = mesh_surface(&surf, &surf.surface_options(0.1)).unwrap();
@@ -190,4 +188,108 @@ fn surface_remeshes_sharp_input() {
     assert!(q.min_angle >= 30.0 && q.mean_q >= 0.97 && q.size_deviation <= 0.08);
     assert_eq!(q.euler, surf.euler_characteristic());
     assert!(gap <= 0.05, "feature gap {gap} h0");
+}
+
+/// A family of inputs with sharp edges: the part at three sizes and boxes turned by random
+/// rotations (edges in no grid plane).
+fn sharp_family() -> Vec<(String, TriSurface, f64)> {
+    use trussmesh::testing::Rng;
+    let mut rng = Rng::new(0x5a4b);
+    let mut cases: Vec<(String, TriSurface, f64)> = Vec::new();
+    for h0 in [0.08, 0.1, 0.12] {
+        cases.push((format!("part, h0 {h0}"), part(), h0));
+    }
+    for k in 0..4 {
+        let axis = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).normalize();
+        let rot = glam::DMat3::from_axis_angle(axis, rng.range(0.2, 1.4));
+        let half = DVec3::new(rng.range(0.6, 1.0), rng.range(0.6, 1.0), rng.range(0.6, 1.0));
+        let h0 = [0.1, 0.12, 0.08, 0.1][k];
+        cases.push((format!("turned box {k}, h0 {h0}"), trisurf_inputs::turned_box(5, half, rot, DVec3::ZERO), h0));
+    }
+    cases
+}
+
+/// One row of the sharp family: the remeshed surface's figures, or the error.
+struct SharpRow {
+    min_angle: f64,
+    mean_q: f64,
+    gap: f64,
+    corners: usize,
+    want_corners: usize,
+    euler_kept: bool,
+}
+
+fn sharp_row(name: &str, surf: &TriSurface, h0: f64) -> Result<SharpRow, String> {
+    let out = mesh_surface(surf, &surf.surface_options(h0)).map_err(|e| format!("| {name} | {h0} | error: {e} |"))?;
+    let q = &out.report.quality;
+    let remeshed = TriSurface::from_mesh_data(&MeshData::from_trimesh3(&out.mesh)).expect("a valid closed surface");
+    let (gap, corners) = feature_gap(surf, &remeshed, h0);
+    let want_corners = surf.features(DEFAULT_FEATURE_ANGLE).corners.len();
+    println!(
+        "| {name} | {h0} | {} | {:.1} | {:.1} | {:.4} | {:.1}% | {gap:.3} | {corners} ({want_corners}) | {} |",
+        q.triangles,
+        q.min_angle,
+        q.max_angle,
+        q.mean_q,
+        100.0 * q.size_deviation,
+        q.euler
+    );
+    Ok(SharpRow {
+        min_angle: q.min_angle,
+        mean_q: q.mean_q,
+        gap,
+        corners,
+        want_corners,
+        euler_kept: q.euler == surf.euler_characteristic(),
+    })
+}
+
+const SHARP_HEADER: &str = "| input | h0 | triangles | min angle | max angle | mean q | size dev | feature gap / h0 | corners (input) | chi |\n|---|---|---|---|---|---|---|---|---|---|";
+
+/// Surface remeshing holds the input's sharp features across the family (all but turned box
+/// 0, see the ignored test below): one output corner per input corner, min angle 30 degrees or
+/// more, mean q 0.96 or more, the input's Euler characteristic, features within 0.06 h (the
+/// issue's 0.05 h is the ignored test below). Prints the table kept in docs/trisurf.md.
+#[test]
+fn surface_remeshing_holds_sharp_features_of_a_family() {
+    println!("{SHARP_HEADER}");
+    let mut failed = Vec::new();
+    for (name, surf, h0) in sharp_family() {
+        if name.starts_with("turned box 0") {
+            continue;
+        }
+        match sharp_row(&name, &surf, h0) {
+            Ok(r) => {
+                if r.min_angle < 30.0 || r.mean_q < 0.96 || r.corners != r.want_corners || !r.euler_kept || r.gap > 0.06
+                {
+                    failed.push(name);
+                }
+            }
+            Err(row) => {
+                println!("{row}");
+                failed.push(name);
+            }
+        }
+    }
+    assert!(failed.is_empty(), "{failed:?}");
+}
+
+/// The feature target on the whole family: every input feature edge within 0.05 h of
+/// an output feature edge.
+#[test]
+#[ignore = "not reached: the part's hole rims at h0 0.08 and 0.12 are 0.058 h and 0.051 h from the output's feature edges (0.046 h at 0.1); turned box 0 at h0 0.1 ends in an internal error: the smooth mesh crosses itself where it rounds a corner, and holding the features from it leaves a fold 3 h from a corner"]
+fn surface_remeshing_keeps_the_family_within_005_h() {
+    println!("{SHARP_HEADER}");
+    let mut failed = Vec::new();
+    for (name, surf, h0) in sharp_family() {
+        match sharp_row(&name, &surf, h0) {
+            Ok(r) if r.gap <= 0.05 => {}
+            Ok(_) => failed.push(name),
+            Err(row) => {
+                println!("{row}");
+                failed.push(name);
+            }
+        }
+    }
+    assert!(failed.is_empty(), "{failed:?}");
 }

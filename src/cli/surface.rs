@@ -67,6 +67,14 @@ pub struct SurfaceArgs {
     /// Iteration cap of each force loop (one per level of the coarse-to-fine start).
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = whole_number::<usize>)]
     pub max_iter: Option<usize>,
+    /// With --input: edges whose triangles' normals differ by more than DEG degrees are sharp
+    /// features, held by the remeshed surface: its vertices on them slide along the input's
+    /// own edges, and corners stay (default 40).
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true, requires = "input")]
+    pub feature_angle: Option<f64>,
+    /// With --input: hold no sharp feature of the input (they are rounded off).
+    #[arg(long, requires = "input")]
+    pub no_sharp: bool,
     /// Memory budget (such as 2G or 500M; default a quarter of the machine's memory): a run
     /// whose estimate passes it is refused before meshing.
     #[arg(long, value_name = "BYTES")]

@@ -179,7 +179,8 @@ pub fn run_mesh(args: &MeshArgs, file: &str) -> Result<(), Failure> {
 pub fn run_surface(args: &SurfaceArgs, file: &Path, h0: f64) -> Result<(), Failure> {
     output::check_all(&args.output)?;
     let name = file.display().to_string();
-    let surf = read(&name)?;
+    let angle = feature_angle(args.feature_angle, !args.no_sharp)?;
+    let surf = read(&name)?.with_feature_angle(angle);
     let triangles = surf.area() / (3f64.sqrt() / 4.0 * h0 * h0);
     check_budget(args.max_memory.as_deref(), &surf, "the surface mesh", triangles, budget::BYTES_PER_SURFACE_TRIANGLE)?;
     let mut opts = surf.surface_options(h0);
@@ -206,15 +207,10 @@ pub fn run_surface(args: &SurfaceArgs, file: &Path, h0: f64) -> Result<(), Failu
         mesh_surface(&surf, &opts)
     })?;
     let data = MeshData::from_trimesh3(&out.mesh);
-    // The surface mesher holds no sharp edge of the input yet: a mesh folded across one is
-    // refused, not written.
+    // A remeshed surface that is no valid input in turn (the mesher's own check should have
+    // caught it) is refused, not written.
     if let Err(e) = TriSurface::from_mesh_data(&data) {
-        let sharp = surf.features(DEFAULT_FEATURE_ANGLE).edges.len();
-        return Err(Failure::internal(format!(
-            "the remeshed surface is no valid closed surface ({e}); the input has {sharp} sharp edges (normals \
-             turning by more than {DEFAULT_FEATURE_ANGLE} degrees), which surface remeshing does not hold yet \
-             (see docs/trisurf.md); a smaller --h0 may help"
-        )));
+        return Err(Failure::internal(format!("the remeshed surface is no valid closed surface ({e})")));
     }
     output::write_all(&args.output, &data, &name)?;
     if !args.quiet {

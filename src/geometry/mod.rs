@@ -121,6 +121,26 @@ pub trait Implicit3: Sync + Send {
     fn declared_distance(&self) -> Option<bool> {
         None
     }
+    /// Sharp features the geometry knows exactly (a triangulated surface's feature edges), for
+    /// the surface mesher to hold in place of those it would find from the function; `None`
+    /// (the default) lets it find them itself.
+    fn creases(&self) -> Option<&dyn Creases> {
+        None
+    }
+}
+
+/// Sharp features given exactly: the surface split into smooth patches, the curves where two
+/// patches meet, and the corners where three or more do. The surface mesher labels each of its
+/// triangles by the patch under it, holds its vertices between two labels on that pair's curve
+/// and its vertices nearest the corners on them.
+pub trait Creases: Sync {
+    /// The patch under the surface point nearest `p`.
+    fn patch(&self, p: DVec3) -> Option<u32>;
+    /// The corners.
+    fn corners(&self) -> &[DVec3];
+    /// The point nearest `p` on the curve between patches `a` and `b`, with the curve's unit
+    /// tangent there; `None` when the two patches do not meet.
+    fn onto(&self, a: u32, b: u32, p: DVec3) -> Option<(DVec3, DVec3)>;
 }
 
 /// Points per parallel task of the default batch evaluations.

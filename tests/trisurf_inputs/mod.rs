@@ -107,3 +107,46 @@ pub fn part(h: f64) -> TriSurface {
     }
     TriSurface::new(pts, tris).expect("part surface")
 }
+
+/// The box of half sides `half`, each face split into n x n squares of two triangles, turned by
+/// `rot` about its centre and moved to `centre`: exact sharp edges in no grid plane.
+pub fn turned_box(n: usize, half: DVec3, rot: glam::DMat3, centre: DVec3) -> TriSurface {
+    let mut index: HashMap<[i64; 3], usize> = HashMap::new();
+    let mut pts: Vec<[f64; 3]> = Vec::new();
+    let mut tris: Vec<[usize; 3]> = Vec::new();
+    // Lattice coordinates in 0..=n on each axis; the point is shared by the faces it is on.
+    let mut id = |l: [i64; 3], pts: &mut Vec<[f64; 3]>| -> usize {
+        *index.entry(l).or_insert_with(|| {
+            let u = DVec3::new(l[0] as f64, l[1] as f64, l[2] as f64) * (2.0 / n as f64) - DVec3::ONE;
+            pts.push((centre + rot * (u * half)).to_array());
+            pts.len() - 1
+        })
+    };
+    let n = n as i64;
+    for ax in 0..3 {
+        let (o0, o1) = ((ax + 1) % 3, (ax + 2) % 3);
+        for side in [0, n] {
+            for i in 0..n {
+                for j in 0..n {
+                    let at = |a: i64, b: i64| {
+                        let mut l = [0i64; 3];
+                        l[ax] = side;
+                        l[o0] = a;
+                        l[o1] = b;
+                        l
+                    };
+                    let q = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)].map(|l| id(l, &mut pts));
+                    // (o0, o1, ax) is right-handed: counter-clockwise in (o0, o1) faces +ax.
+                    if side == n {
+                        tris.push([q[0], q[1], q[2]]);
+                        tris.push([q[0], q[2], q[3]]);
+                    } else {
+                        tris.push([q[0], q[2], q[1]]);
+                        tris.push([q[0], q[3], q[2]]);
+                    }
+                }
+            }
+        }
+    }
+    TriSurface::new(pts, tris).expect("turned box")
+}

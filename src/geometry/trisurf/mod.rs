@@ -17,6 +17,7 @@
 
 mod bvh;
 mod check;
+mod creases;
 pub mod distance;
 mod features;
 mod options;
@@ -47,6 +48,11 @@ pub struct TriSurface {
     bbox: [DVec3; 2],
     /// Below this distance from the surface the gradient is the pseudo-normal.
     tiny: f64,
+    /// The feature angle at which the surface mesher holds the input's sharp edges (None: it
+    /// holds none).
+    feature_angle: Option<f64>,
+    /// The patches and curves at `feature_angle`, made when first asked for.
+    creases: std::sync::OnceLock<Option<creases::CreaseData>>,
 }
 
 impl TriSurface {
@@ -66,7 +72,30 @@ impl TriSurface {
             .iter()
             .fold((DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)), |(l, h), &p| (l.min(p), h.max(p)));
         let tiny = 1e-12 * (hi - lo).length().max(f64::MIN_POSITIVE);
-        Ok(TriSurface { points, tris: checked.tris, neighbors: checked.neighbors, bvh, normals, bbox: [lo, hi], tiny })
+        Ok(TriSurface {
+            points,
+            tris: checked.tris,
+            neighbors: checked.neighbors,
+            bvh,
+            normals,
+            bbox: [lo, hi],
+            tiny,
+            feature_angle: Some(DEFAULT_FEATURE_ANGLE),
+            creases: std::sync::OnceLock::new(),
+        })
+    }
+
+    /// The surface with the feature angle (degrees) at which the surface mesher holds its
+    /// sharp edges, or `None` to hold none (the default is [`DEFAULT_FEATURE_ANGLE`]).
+    pub fn with_feature_angle(mut self, angle_deg: Option<f64>) -> TriSurface {
+        self.feature_angle = angle_deg;
+        self.creases = std::sync::OnceLock::new();
+        self
+    }
+
+    /// The patches and curves the surface mesher holds, if any.
+    fn crease_data(&self) -> Option<&creases::CreaseData> {
+        self.creases.get_or_init(|| self.feature_angle.and_then(|a| creases::CreaseData::new(self, a))).as_ref()
     }
 
     /// Reads and checks a surface file (.stl ASCII or binary, .obj, .ply ASCII or binary,
@@ -183,6 +212,9 @@ impl Implicit3 for TriSurface {
     }
     fn is_distance(&self) -> bool {
         true
+    }
+    fn creases(&self) -> Option<&dyn super::Creases> {
+        self.crease_data().map(|_| self as &dyn super::Creases)
     }
 }
 

@@ -158,6 +158,9 @@ pub(super) fn search(m: &mut TriMesh<DVec2>, g: &Geometry) -> Result<usize, Erro
             i = next_i;
         }
         kept += round;
+        if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+            eprintln!("search round: {} candidate edges, {round} kept, {} faces", edges.len(), m.num_faces());
+        }
         if round == 0 {
             break;
         }

@@ -6,11 +6,13 @@
 //!
 //! Found from phi as the 3-D mesher finds them (`crate::mesher::sharp`): two points whose normals
 //! differ by more than SHARP_DEG straddle an edge, which passes through the point of both
-//! tangent planes nearest them; three faces meet at a corner.
+//! tangent planes nearest them; three faces meet at a corner. A geometry that gives its
+//! features exactly (`Implicit3::creases`: a triangulated surface's feature edges) has them cut
+//! in instead, its patches as the labels, and its own curves to slide along.
 
 use super::geom::{self, project};
 use super::improve::move_if_no_fold_g;
-use crate::geometry::Implicit3;
+use crate::geometry::{Creases, Implicit3};
 use crate::mesher::sharp::{self, Zero};
 use crate::topology::{FaceId, HalfEdgeId, TriMesh, VertexId, VertexTag};
 use crate::Error;
@@ -22,6 +24,16 @@ use smallvec::SmallVec;
 const CUT_PASSES: usize = 4;
 /// A cut point this close (as a fraction of the edge) to an end moves that end instead.
 const CUT_END: f64 = 0.15;
+/// A vertex farther than this many local sizes from the given curve of its two labels does not
+/// move onto it.
+const GIVEN_REACH: f64 = 0.5;
+/// An edge between two labels whose midpoint is farther than this many edge lengths from the
+/// given curve of the two is not along it (a chord of the curve sags far less).
+const GIVEN_SAG: f64 = 0.1;
+/// A vertex within this many edge lengths of a given curve is on it.
+const ON_CURVE: f64 = 1e-9;
+/// Vertices tried, nearest first, for each given corner.
+const CORNER_TRIES: usize = 12;
 /// Steps of the projection onto a feature curve.
 const CURVE_STEPS: usize = 8;
 
@@ -70,6 +82,24 @@ pub(super) fn curve_normals(m: &TriMesh<DVec3>, v: VertexId) -> Option<(DVec3, D
     }
     match groups.as_slice() {
         [a, b] => Some((a.1.normalize_or_zero(), b.1.normalize_or_zero())),
+        _ => None,
+    }
+}
+
+/// The two labels of the triangles at the curve vertex `v` (lower first), or `None` if its
+/// triangles do not carry exactly two.
+fn curve_labels(m: &TriMesh<DVec3>, v: VertexId) -> Option<(u32, u32)> {
+    let mut ls: SmallVec<[u32; 3]> = SmallVec::new();
+    for h in m.outgoing(v) {
+        if let Some(f) = m.face_of(h) {
+            let l = m.face(f).label;
+            if !ls.contains(&l) {
+                ls.push(l);
+            }
+        }
+    }
+    match ls.as_slice() {
+        [a, b] => Some(((*a).min(*b), (*a).max(*b))),
         _ => None,
     }
 }
@@ -130,8 +160,18 @@ pub(super) fn held_target(
         return Ok(None);
     }
     let Some((n1, n2)) = curve_normals(m, v) else { return Ok(None) };
-    let Some(t) = n1.cross(n2).try_normalize() else { return Ok(None) };
     let p = m.pos(v);
+    if let Some(c) = phi.creases() {
+        // The input's own curve: along its tangent, then onto it.
+        let Some((a, b)) = curve_labels(m, v) else { return Ok(None) };
+        // A vertex far from its pair's curve is mislabelled: it stays rather than jump there.
+        let Some((q0, t)) = c.onto(a, b, p) else { return Ok(None) };
+        if q0.distance(p) > GIVEN_REACH * s {
+            return Ok(None);
+        }
+        return Ok(c.onto(a, b, p + d.dot(t) * t).map(|(q, _)| (q, (n1 + n2).normalize_or_zero())));
+    }
+    let Some(t) = n1.cross(n2).try_normalize() else { return Ok(None) };
     onto_crease(phi, p + d.dot(t) * t, n1, n2, s, tol)
 }
 
@@ -149,6 +189,12 @@ pub(super) fn split_point(
         return project(phi, mid, tol).map(Some);
     }
     let (Some(f1), Some(f2)) = (m.face_of(h), m.face_of(m.twin(h))) else { return Ok(None) };
+    if let Some(c) = phi.creases() {
+        // An edge between two labels that is not along their curve is not split onto it.
+        let len = m.pos(m.origin(h)).distance(m.pos(m.dest(h)));
+        let q = c.onto(m.face(f1).label, m.face(f2).label, mid).map(|x| x.0);
+        return Ok(q.filter(|q| q.distance(mid) <= GIVEN_SAG * len));
+    }
     Ok(onto_crease(phi, mid, face_normal(m, f1), face_normal(m, f2), s, tol)?.map(|x| x.0))
 }
 
@@ -220,6 +266,9 @@ fn place(m: &mut TriMesh<DVec3>, v: VertexId, p: DVec3, g: DVec3) -> bool {
 /// labels and tags it (see the module). Returns false, leaving `m` untouched, when phi shows no
 /// sharp edge.
 pub(super) fn imprint(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, h: f64, tol: f64) -> Result<bool, Error> {
+    if let Some(c) = phi.creases() {
+        return Ok(imprint_given(m, phi, c));
+    }
     let g = Phi { phi, tol };
     let eps = sharp::PROBE * h;
     // The normal of every vertex, and the two faces' of those on an edge.
@@ -433,6 +482,12 @@ fn label(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, eps: f64) {
     for &f in &faces {
         m.set_label(f, lab[f].min(65_535));
     }
+    tag_by_labels(m);
+}
+
+/// Tags every vertex by the labels of its triangles: one is free, two a curve vertex, three or
+/// more a corner.
+fn tag_by_labels(m: &mut TriMesh<DVec3>) {
     let ids: Vec<VertexId> = m.vertex_ids().collect();
     for v in ids {
         let mut ls: SmallVec<[u32; 4]> = SmallVec::new();
@@ -450,5 +505,187 @@ fn label(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, eps: f64) {
             _ => VertexTag::Fixed,
         };
         m.set_tag(v, tag);
+    }
+}
+
+/// [`imprint`] with the sharp features the geometry gives exactly (`c`), into an even mesh of
+/// the surface: vertices already on a curve are held there; the nearest vertex that can move
+/// onto each corner without folding does so and is fixed; every edge between two patches is
+/// cut where the curve of those two crosses it (or its end near the curve moves onto it); the
+/// faces are labelled by [`label_given`], the vertices tagged by the labels around them (the
+/// placed corners stay fixed), and the curve vertices put on their curve. Returns false,
+/// leaving `m` untouched, when a vertex has no patch.
+fn imprint_given(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, c: &dyn Creases) -> bool {
+    let mut patch: SecondaryMap<VertexId, u32> = SecondaryMap::new();
+    for v in m.vertex_ids() {
+        let Some(l) = c.patch(m.pos(v)) else { return false };
+        patch.insert(v, l);
+    }
+    // Vertices already on a curve (projections onto a convex edge land on it) are held there.
+    let ids: Vec<VertexId> = m.vertex_ids().collect();
+    for &v in &ids {
+        let p = m.pos(v);
+        for w in m.neighbours(v) {
+            let (a, b) = (patch[v], patch[w]);
+            if a == b {
+                continue;
+            }
+            if let Some((q, _)) = c.onto(a, b, p) {
+                if q.distance(p) <= ON_CURVE * p.distance(m.pos(w)) {
+                    m.set_tag(v, VertexTag::InternalBoundary { curve: curve_id(a, b) });
+                    break;
+                }
+            }
+        }
+    }
+    // Each corner takes the nearest of the vertices that can move onto it without folding.
+    for &k in c.corners() {
+        let mut near: Vec<(f64, VertexId)> = m.vertex_ids().map(|v| (m.pos(v).distance(k), v)).collect();
+        near.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let dir = phi.gradient(k).normalize_or_zero();
+        for &(_, v) in near.iter().take(CORNER_TRIES) {
+            if m.tag(v) != VertexTag::Fixed && place(m, v, k, dir) {
+                m.set_tag(v, VertexTag::Fixed);
+                break;
+            }
+        }
+    }
+    for _ in 0..CUT_PASSES {
+        let mut cuts = Vec::new();
+        for e in super::density::edge_list(m) {
+            let (a, b) = (e.1, e.2);
+            if m.tag(a) != VertexTag::Interior || m.tag(b) != VertexTag::Interior || patch[a] == patch[b] {
+                continue;
+            }
+            let (pa, pb) = (m.pos(a), m.pos(b));
+            let (mid, len) = (0.5 * (pa + pb), pa.distance(pb));
+            if let Some((x, _)) = c.onto(patch[a], patch[b], mid) {
+                if x.distance(mid) <= len {
+                    cuts.push((e, x, patch[a].min(patch[b]), patch[a].max(patch[b])));
+                }
+            }
+        }
+        if cuts.is_empty() {
+            break;
+        }
+        for (e, x, la, lb) in cuts {
+            let Some(hh) = super::density::edge_now(m, e) else { continue };
+            if m.tag(e.1) != VertexTag::Interior || m.tag(e.2) != VertexTag::Interior {
+                continue;
+            }
+            let (pa, pb) = (m.pos(e.1), m.pos(e.2));
+            let len = pa.distance(pb);
+            let dir = (phi.gradient(pa) + phi.gradient(pb)).normalize_or_zero();
+            // An end already near the curve moves onto it (a cut there would leave a sliver).
+            let (da, db) = (x.distance(pa), x.distance(pb));
+            let end = if da <= db { e.1 } else { e.2 };
+            let mut v = (da.min(db) < CUT_END * len && place(m, end, x, dir)).then_some(end);
+            if v.is_none() {
+                v = m.split_edge(hh, x).ok();
+            }
+            if let Some(v) = v {
+                m.set_tag(v, VertexTag::InternalBoundary { curve: curve_id(la, lb) });
+            }
+        }
+    }
+    unflatten(m);
+    let corners: Vec<VertexId> = m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).collect();
+    label_given(m, c);
+    tag_by_labels(m);
+    for v in corners {
+        m.set_tag(v, VertexTag::Fixed);
+    }
+    // A vertex where three patches meet that is not on a corner yet (the nearest vertex could
+    // not move there without folding its star) goes onto the nearest corner: its star spans
+    // the patches around it.
+    let held: Vec<VertexId> = m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).collect();
+    for v in held {
+        let p = m.pos(v);
+        let near = c.corners().iter().copied().min_by(|a, b| a.distance(p).total_cmp(&b.distance(p)));
+        if let Some(k) = near {
+            if k != p {
+                place(m, v, k, phi.gradient(k).normalize_or_zero());
+            }
+        }
+    }
+    let curve: Vec<VertexId> =
+        m.vertex_ids().filter(|&v| matches!(m.tag(v), VertexTag::InternalBoundary { .. })).collect();
+    for v in curve {
+        let (Some((a, b)), Some((n1, n2))) = (curve_labels(m, v), curve_normals(m, v)) else { continue };
+        if let Some((q, _)) = c.onto(a, b, m.pos(v)) {
+            place(m, v, q, (n1 + n2).normalize_or_zero());
+        }
+    }
+    true
+}
+
+/// The pair of patches a curve vertex was cut or found on.
+fn pair_of(tag: VertexTag) -> Option<(u32, u32)> {
+    match tag {
+        VertexTag::InternalBoundary { curve } => Some((curve / 65_536, curve % 65_536)),
+        _ => None,
+    }
+}
+
+/// Labels the faces of the cut mesh by the given patches: regions flooded across every edge but
+/// those along a curve (both ends held, the midpoint on the curve of an end's pair), each region
+/// labelled by the patch under most of its triangles' centroids. A triangle whose centroid
+/// strays across a curve (near a corner) so keeps the label of its side.
+fn label_given(m: &mut TriMesh<DVec3>, c: &dyn Creases) {
+    let along = |m: &TriMesh<DVec3>, h: HalfEdgeId| -> bool {
+        let (a, b) = (m.origin(h), m.dest(h));
+        if m.tag(a) == VertexTag::Interior || m.tag(b) == VertexTag::Interior {
+            return false;
+        }
+        let (pa, pb) = (m.pos(a), m.pos(b));
+        let (mid, len) = (0.5 * (pa + pb), pa.distance(pb));
+        match (pair_of(m.tag(a)), pair_of(m.tag(b))) {
+            (None, None) => true,
+            (x, y) => [x, y]
+                .into_iter()
+                .flatten()
+                .any(|(p, q)| c.onto(p, q, mid).is_some_and(|(on, _)| on.distance(mid) <= GIVEN_SAG * len)),
+        }
+    };
+    let faces: Vec<FaceId> = m.face_ids().collect();
+    let mut region: SecondaryMap<FaceId, usize> = SecondaryMap::new();
+    let mut regions: Vec<Vec<FaceId>> = Vec::new();
+    for &f0 in &faces {
+        if region.contains_key(f0) {
+            continue;
+        }
+        let k = regions.len();
+        region.insert(f0, k);
+        let mut members = vec![f0];
+        let mut i = 0;
+        while i < members.len() {
+            let f = members[i];
+            i += 1;
+            for h in m.face_half_edges(f) {
+                let Some(g) = m.face_of(m.twin(h)) else { continue };
+                if region.contains_key(g) || along(m, h) {
+                    continue;
+                }
+                region.insert(g, k);
+                members.push(g);
+            }
+        }
+        regions.push(members);
+    }
+    for members in regions {
+        let mut votes: Vec<(u32, usize)> = Vec::new();
+        for &f in &members {
+            let centroid = m.face_vertices(f).map(|v| m.pos(v)).iter().sum::<DVec3>() / 3.0;
+            let l = c.patch(centroid).unwrap_or(0);
+            match votes.iter_mut().find(|x| x.0 == l) {
+                Some(x) => x.1 += 1,
+                None => votes.push((l, 1)),
+            }
+        }
+        // Most votes; the lower patch on a tie (deterministic).
+        let best = votes.iter().max_by(|x, y| x.1.cmp(&y.1).then(y.0.cmp(&x.0))).map_or(0, |x| x.0);
+        for f in members {
+            m.set_label(f, best.min(65_535));
+        }
     }
 }

@@ -124,25 +124,70 @@ const PROJECT_TOL: f64 = 1e-9;
 /// ever leave a surface that fails the final check or has a triangle below quality HELD_MIN_Q,
 /// the surface is meshed again without them.
 pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
-    match mesh_surface_held(phi, opts, true)? {
+    let trace = |e: &Error| {
+        if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+            eprintln!("holding sharp features failed ({e}): the surface is meshed without them");
+        }
+    };
+    if phi.creases().is_some() {
+        // Features given exactly: they are cut into the smooth mesh, whose even triangles cut
+        // cleanly (a marching start has bands of nodes projected onto a convex edge, some of
+        // them coincident), and the smooth mesh is the fallback.
+        let mut invalid = None;
+        let smooth = match mesh_surface_held(phi, opts, false, None, Some(&mut invalid)) {
+            Ok(Ok(out)) => out,
+            // A smooth mesh that fails the final check (folded or crossing itself where it
+            // rounds a corner) is still a start to cut the features into: holding them often
+            // mends it. Its error stands if that fails too.
+            Ok(Err(e)) | Err(e) => {
+                trace(&e);
+                return match invalid.map(|start| mesh_surface_held(phi, opts, true, Some(start), None)) {
+                    Some(Ok(Ok(out))) => Ok(out),
+                    _ => Err(e),
+                };
+            }
+        };
+        let start = smooth.mesh.clone();
+        return Ok(match mesh_surface_held(phi, opts, true, Some(start), None)? {
+            Ok(out) => out,
+            Err(e) => {
+                trace(&e);
+                smooth
+            }
+        });
+    }
+    match mesh_surface_held(phi, opts, true, None, None)? {
         Ok(out) => Ok(out),
-        Err(_) => mesh_surface_held(phi, opts, false)?,
+        Err(e) => {
+            trace(&e);
+            mesh_surface_held(phi, opts, false, None, None)?
+        }
     }
 }
 
-/// [`mesh_surface`], holding sharp features when `sharp`. The inner error is a finished surface
-/// that fails the final check with features held.
+/// [`mesh_surface`], holding sharp features when `sharp`, from the start mesh `given` when
+/// there is one (its features cut into it; else the marching start). The inner error is a
+/// finished surface that fails the final check with features held. A smooth surface that fails
+/// it is left in `invalid` when given.
 fn mesh_surface_held(
     phi: &dyn Implicit3,
     opts: &SurfaceOptions,
     sharp: bool,
+    given: Option<TriMesh<DVec3>>,
+    invalid: Option<&mut Option<TriMesh<DVec3>>>,
 ) -> Result<Result<SurfaceOutput, Error>, Error> {
     let start = std::time::Instant::now();
     opts.check()?;
     let size = opts.size_field(phi)?;
     let hmin = size.min();
     let tol = PROJECT_TOL * hmin;
-    let (mut m, levels, held) = start::start_mesh(phi, opts.bbox, hmin, tol, sharp)?;
+    let (mut m, levels, held) = match given {
+        Some(mut g) => {
+            let held = features::imprint(&mut g, phi, hmin, tol)?;
+            (g, 0, held)
+        }
+        None => start::start_mesh(phi, opts.bbox, hmin, tol, sharp)?,
+    };
     let start_vertices = m.num_vertices();
     let mut report: Report<SurfaceQuality> = Report::default();
     let mut st = SurfaceStages::default();
@@ -245,7 +290,11 @@ fn mesh_surface_held(
         if held {
             return Ok(Err(e));
         }
-        return Err(too_thin_or(phi, &m, hmin, tol, e));
+        let e = too_thin_or(phi, &m, hmin, tol, e);
+        if let Some(slot) = invalid {
+            *slot = Some(m);
+        }
+        return Err(e);
     }
     st.kept_iteration = kept;
     report.stages = Some(st);

@@ -1,0 +1,108 @@
+//! The input's sharp features in the form the surface mesher holds them: the triangles grouped
+//! into smooth patches (connected across every edge that is not a feature edge), the feature
+//! edges grouped by the two patches they separate, and the corners where three or more patches
+//! meet. The surface mesher labels its own triangles by the patch under them, so that a mesh
+//! vertex between two labels lies on the curve of that pair and is projected onto the input's
+//! own edges there, exactly (see [`crate::geometry::Creases`]).
+
+use super::TriSurface;
+use crate::geometry::Creases;
+use crate::topology::DisjointSets;
+use glam::DVec3;
+use std::collections::HashMap;
+
+/// Labels are packed two to a curve id by the surface mesher: at most this many patches.
+const MAX_PATCHES: usize = 65_535;
+
+/// The patches, curves and corners of a surface at one feature angle.
+#[derive(Clone, Debug, Default)]
+pub struct CreaseData {
+    /// The patch of each input triangle.
+    patch: Vec<u32>,
+    /// The corners: input vertices where three or more patches meet.
+    corners: Vec<DVec3>,
+    /// The feature edges between each two patches (lower label first), as segments.
+    curves: HashMap<(u32, u32), Vec<[DVec3; 2]>>,
+}
+
+impl CreaseData {
+    /// The patches of `s` at `angle_deg` degrees; `None` when the surface has no feature edge
+    /// between two different patches, or more patches than the mesher can label.
+    pub(super) fn new(s: &TriSurface, angle_deg: f64) -> Option<CreaseData> {
+        let cos_max = angle_deg.to_radians().cos();
+        let n = s.tris.len();
+        let sharp = |t: usize, w: usize| s.normals.face(t).dot(s.normals.face(w)) < cos_max;
+        let mut sets = DisjointSets::new(n);
+        for t in 0..n {
+            for k in 0..3 {
+                let w = s.neighbors[t][k];
+                if w > t && !sharp(t, w) {
+                    sets.join(t, w);
+                }
+            }
+        }
+        // Labels in the order of each patch's first triangle: deterministic.
+        let mut label: HashMap<usize, u32> = HashMap::new();
+        let mut patch = Vec::with_capacity(n);
+        for t in 0..n {
+            let r = sets.root(t);
+            let next = label.len() as u32;
+            patch.push(*label.entry(r).or_insert(next));
+        }
+        if label.len() > MAX_PATCHES {
+            return None;
+        }
+        let mut curves: HashMap<(u32, u32), Vec<[DVec3; 2]>> = HashMap::new();
+        let mut around: Vec<Vec<u32>> = vec![Vec::new(); s.points.len()];
+        for t in 0..n {
+            for &v in &s.tris[t] {
+                if !around[v].contains(&patch[t]) {
+                    around[v].push(patch[t]);
+                }
+            }
+            for k in 0..3 {
+                let w = s.neighbors[t][k];
+                let (a, b) = (patch[t], patch[w]);
+                if w > t && a != b {
+                    let (i, j) = (s.tris[t][k], s.tris[t][(k + 1) % 3]);
+                    curves.entry((a.min(b), a.max(b))).or_default().push([s.points[i], s.points[j]]);
+                }
+            }
+        }
+        if curves.is_empty() {
+            return None;
+        }
+        let corners: Vec<DVec3> = (0..s.points.len()).filter(|&v| around[v].len() >= 3).map(|v| s.points[v]).collect();
+        Some(CreaseData { patch, corners, curves })
+    }
+}
+
+/// The nearest point of segment `s` to `p`.
+fn on_segment(p: DVec3, s: [DVec3; 2]) -> DVec3 {
+    let d = s[1] - s[0];
+    let l2 = d.length_squared();
+    let t = if l2 > 0.0 { ((p - s[0]).dot(d) / l2).clamp(0.0, 1.0) } else { 0.0 };
+    s[0] + d * t
+}
+
+impl Creases for TriSurface {
+    fn patch(&self, p: DVec3) -> Option<u32> {
+        let data = self.crease_data()?;
+        Some(data.patch[self.closest(p).triangle])
+    }
+    fn corners(&self) -> &[DVec3] {
+        self.crease_data().map_or(&[], |d| &d.corners)
+    }
+    fn onto(&self, a: u32, b: u32, p: DVec3) -> Option<(DVec3, DVec3)> {
+        let segs = self.crease_data()?.curves.get(&(a.min(b), a.max(b)))?;
+        let mut best: Option<(f64, DVec3, DVec3)> = None;
+        for &s in segs {
+            let q = on_segment(p, s);
+            let d2 = q.distance_squared(p);
+            if best.is_none_or(|b| d2 < b.0) {
+                best = Some((d2, q, (s[1] - s[0]).normalize_or_zero()));
+            }
+        }
+        best.map(|(_, q, t)| (q, t))
+    }
+}
