@@ -86,10 +86,9 @@ pub(super) fn curve_normals(m: &TriMesh<DVec3>, v: VertexId) -> Option<(DVec3, D
     }
 }
 
-/// The two labels of the triangles at the curve vertex `v` (lower first), or `None` if its
-/// triangles do not carry exactly two.
-fn curve_labels(m: &TriMesh<DVec3>, v: VertexId) -> Option<(u32, u32)> {
-    let mut ls: SmallVec<[u32; 3]> = SmallVec::new();
+/// The distinct labels of the triangles at `v`, in the order met.
+fn labels_at(m: &TriMesh<DVec3>, v: VertexId) -> SmallVec<[u32; 4]> {
+    let mut ls: SmallVec<[u32; 4]> = SmallVec::new();
     for h in m.outgoing(v) {
         if let Some(f) = m.face_of(h) {
             let l = m.face(f).label;
@@ -98,7 +97,13 @@ fn curve_labels(m: &TriMesh<DVec3>, v: VertexId) -> Option<(u32, u32)> {
             }
         }
     }
-    match ls.as_slice() {
+    ls
+}
+
+/// The two labels of the triangles at the curve vertex `v` (lower first), or `None` if its
+/// triangles do not carry exactly two.
+fn curve_labels(m: &TriMesh<DVec3>, v: VertexId) -> Option<(u32, u32)> {
+    match labels_at(m, v).as_slice() {
         [a, b] => Some(((*a).min(*b), (*a).max(*b))),
         _ => None,
     }
@@ -490,16 +495,7 @@ fn label(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, eps: f64) {
 fn tag_by_labels(m: &mut TriMesh<DVec3>) {
     let ids: Vec<VertexId> = m.vertex_ids().collect();
     for v in ids {
-        let mut ls: SmallVec<[u32; 4]> = SmallVec::new();
-        for h in m.outgoing(v) {
-            if let Some(f) = m.face_of(h) {
-                let l = m.face(f).label;
-                if !ls.contains(&l) {
-                    ls.push(l);
-                }
-            }
-        }
-        let tag = match ls.as_slice() {
+        let tag = match labels_at(m, v).as_slice() {
             [_] => VertexTag::Interior,
             [a, b] => VertexTag::InternalBoundary { curve: curve_id(*a, *b) },
             _ => VertexTag::Fixed,
