@@ -138,3 +138,54 @@ fn bad_surfaces_exit_2_and_write_nothing() {
     assert_eq!(code, 2, "{err}");
     assert!(!d.join("out.vtu").exists());
 }
+
+/// The cube [-1, 1]^3 as 12 triangles.
+fn cube_obj(d: &Path) {
+    let pts: Vec<[f64; 3]> = (0..8)
+        .map(|i| [(i & 1) as f64 * 2.0 - 1.0, (i >> 1 & 1) as f64 * 2.0 - 1.0, (i >> 2 & 1) as f64 * 2.0 - 1.0])
+        .collect();
+    let tris = [
+        [0, 2, 3],
+        [0, 3, 1],
+        [4, 5, 7],
+        [4, 7, 6],
+        [0, 1, 5],
+        [0, 5, 4],
+        [2, 6, 7],
+        [2, 7, 3],
+        [0, 4, 6],
+        [0, 6, 2],
+        [1, 3, 7],
+        [1, 7, 5],
+    ];
+    obj(d, "cube.obj", &pts, &tris);
+}
+
+/// `surface --input` holds the input's sharp edges and corners: every output vertex on the
+/// cube, the 8 corners among them exactly, every vertex near an edge on it; `--no-sharp`
+/// rounds them.
+#[test]
+fn surface_input_keeps_the_cube_sharp() {
+    let d = tmp("cube");
+    cube_obj(&d);
+    let on_cube = |p: [f64; 3]| p.iter().map(|c| c.abs()).fold(0.0, f64::max);
+    for h0 in ["0.2", "0.3"] {
+        let (code, out, err) = run(&d, &["surface", "--input", "cube.obj", "--h0", h0, "-o", "r.obj"]);
+        assert_eq!(code, 0, "{err}");
+        println!("h0 {h0}: {out}");
+        let m = trussmesh::io::read_mesh(&d.join("r.obj")).unwrap();
+        assert!(m.points.iter().all(|&p| (on_cube(p) - 1.0).abs() < 1e-9), "a vertex off the cube");
+        let corners = m.points.iter().filter(|p| p.iter().all(|c| (c.abs() - 1.0).abs() < 1e-12)).count();
+        assert_eq!(corners, 8, "h0 {h0}");
+        // On an edge: two coordinates at +-1.
+        let on_edge = |p: &[f64; 3]| p.iter().filter(|c| (c.abs() - 1.0).abs() < 1e-9).count() >= 2;
+        let edge_vertices = m.points.iter().filter(|p| on_edge(p)).count();
+        let h: f64 = h0.parse().unwrap();
+        assert!(edge_vertices as f64 >= 12.0 * 2.0 / h * 0.8, "h0 {h0}: {edge_vertices} vertices on the edges");
+    }
+    let (code, _, err) = run(&d, &["surface", "--input", "cube.obj", "--h0", "0.2", "--no-sharp", "-q", "-o", "n.obj"]);
+    assert_eq!(code, 0, "{err}");
+    let m = trussmesh::io::read_mesh(&d.join("n.obj")).unwrap();
+    let corners = m.points.iter().filter(|p| p.iter().all(|c| (c.abs() - 1.0).abs() < 1e-12)).count();
+    assert!(corners < 8, "--no-sharp held {corners} corners");
+}

@@ -828,6 +828,8 @@ fn flags_that_would_be_ignored_are_refused() {
     let with = |extra: &[&'static str]| sphere.iter().chain(extra).copied().collect::<Vec<_>>();
     refused(&d, &with(&["--hmax", "1"]), &["--hmax", "--curvature"]);
     refused(&d, &with(&["--gradient", "0.5"]), &["--gradient", "--curvature"]);
+    refused(&d, &with(&["--no-sharp"]), &["--no-sharp", "--input"]);
+    refused(&d, &with(&["--feature-angle", "30"]), &["--feature-angle", "--input"]);
     std::fs::write(d.join("p.json"), "{\"patches\": []}").unwrap();
     refused(
         &d,

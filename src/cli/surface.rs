@@ -70,10 +70,10 @@ pub struct SurfaceArgs {
     /// With --input: edges whose triangles' normals differ by more than DEG degrees are sharp
     /// features, held by the remeshed surface: its vertices on them slide along the input's
     /// own edges, and corners stay (default 40).
-    #[arg(long, value_name = "DEG", allow_hyphen_values = true, requires = "input")]
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     pub feature_angle: Option<f64>,
     /// With --input: hold no sharp feature of the input (they are rounded off).
-    #[arg(long, requires = "input")]
+    #[arg(long)]
     pub no_sharp: bool,
     /// Memory budget (such as 2G or 500M; default a quarter of the machine's memory): a run
     /// whose estimate passes it is refused before meshing.
@@ -95,6 +95,9 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
     let h0 = constant("h0", &args.h0)?;
     if h0 <= 0.0 {
         return Err(Failure::bad(format!("h0 = {h0} must be positive (--h0 {})", args.h0.trim())));
+    }
+    if args.input.is_none() && (args.feature_angle.is_some() || args.no_sharp) {
+        return Err(Failure::bad("--feature-angle and --no-sharp go with --input (a surface file)"));
     }
     if let Some(path) = &args.bezier {
         return run_bezier(path, h0, &args, &budget);
