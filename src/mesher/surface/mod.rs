@@ -122,7 +122,9 @@ const PROJECT_TOL: f64 = 1e-9;
 ///
 /// Sharp edges and corners of phi = 0 are found and held (`features.rs`); should holding them
 /// ever leave a surface that fails the final check or has a triangle below quality HELD_MIN_Q,
-/// the surface is meshed again without them.
+/// the surface is meshed again without them. A geometry that gives its features exactly
+/// ([`Implicit3::creases`]: a triangulated surface) is meshed smooth first and its features cut
+/// into that mesh; the smooth mesh is the result when holding them fails.
 pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
     let trace = |e: &Error| {
         if std::env::var_os("TRUSSMESH_TRACE").is_some() {
@@ -148,9 +150,12 @@ pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<Surfac
             }
         };
         let start = smooth.mesh.clone();
-        return Ok(match mesh_surface_held(phi, opts, true, Some(start), None)? {
-            Ok(out) => out,
-            Err(e) => {
+        return Ok(match mesh_surface_held(phi, opts, true, Some(start), None) {
+            Ok(Ok(mut out)) => {
+                out.report.seconds += smooth.report.seconds;
+                out
+            }
+            Ok(Err(e)) | Err(e) => {
                 trace(&e);
                 smooth
             }
@@ -183,8 +188,10 @@ fn mesh_surface_held(
     let tol = PROJECT_TOL * hmin;
     let (mut m, levels, held) = match given {
         Some(mut g) => {
-            let held = features::imprint(&mut g, phi, hmin, tol)?;
-            (g, 0, held)
+            if !features::imprint(&mut g, phi, hmin, tol)? {
+                return Ok(Err(Error::internal("the given features could not be cut into the start")));
+            }
+            (g, 0, true)
         }
         None => start::start_mesh(phi, opts.bbox, hmin, tol, sharp)?,
     };
