@@ -189,3 +189,79 @@ fn surface_input_keeps_the_cube_sharp() {
     let corners = m.points.iter().filter(|p| p.iter().all(|c| (c.abs() - 1.0).abs() < 1e-12)).count();
     assert!(corners < 8, "--no-sharp held {corners} corners");
 }
+
+/// The mean edge length of the triangles of `m` whose centroid passes `keep`.
+fn mean_edge_where(m: &trussmesh::io::MeshData, keep: impl Fn([f64; 3]) -> bool) -> (f64, usize) {
+    let (mut sum, mut n) = (0.0, 0);
+    for i in 0..m.num_cells() {
+        let c = m.cell(i);
+        let p: Vec<[f64; 3]> = c.iter().map(|&v| m.points[v]).collect();
+        let centroid = [0, 1, 2].map(|j| p.iter().map(|q| q[j]).sum::<f64>() / p.len() as f64);
+        if !keep(centroid) {
+            continue;
+        }
+        for a in 0..p.len() {
+            for b in a + 1..p.len() {
+                sum += (0..3).map(|j| (p[a][j] - p[b][j]).powi(2)).sum::<f64>().sqrt();
+                n += 1;
+            }
+        }
+    }
+    (sum / n.max(1) as f64, n)
+}
+
+/// `--size auto` with a surface file: sizes from the curvature of the input's own triangles. An
+/// ellipsoid with semi-axes 2, 1, 1 curves twice as much at its tips as around its equator, so
+/// the edges there come out about half as long; the tets inside it follow the same sizes.
+#[test]
+fn auto_sizes_follow_the_curvature_of_a_surface_file() {
+    let d = tmp("auto");
+    let (code, _, err) = run(
+        &d,
+        &[
+            "surface",
+            "--phi",
+            "x^2/4+y^2+z^2-1",
+            "--bbox",
+            "-2.2,-1.2,-1.2,2.2,1.2,1.2",
+            "--h0",
+            "0.06",
+            "-q",
+            "-o",
+            "e.stl",
+        ],
+    );
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) =
+        run(&d, &["surface", "--input", "e.stl", "--size", "auto", "--h0", "0.08", "--hmax", "0.6", "-o", "r.obj"]);
+    assert_eq!(code, 0, "{err}");
+    println!("{out}");
+    let m = trussmesh::io::read_mesh(&d.join("r.obj")).unwrap();
+    let (tips, nt) = mean_edge_where(&m, |c| c[0].abs() > 1.8);
+    let (middle, nm) = mean_edge_where(&m, |c| c[0].abs() < 0.3);
+    println!("| surface | tips (|x| > 1.8) | equator (|x| < 0.3) | ratio |");
+    println!(
+        "| {} triangles | {tips:.3} ({nt} edges) | {middle:.3} ({nm} edges) | {:.2} |",
+        m.num_cells(),
+        middle / tips
+    );
+    assert!((1.5..=2.6).contains(&(middle / tips)), "equator / tip edge length {:.2}, 2 expected", middle / tips);
+    let (code, out, err) = run(
+        &d,
+        &["mesh", "--dim", "3", "--domain", "e.stl", "--size", "auto", "--h0", "0.1", "--hmax", "0.6", "-o", "v.vtu"],
+    );
+    assert_eq!(code, 0, "{err}");
+    println!("{out}");
+    let v = trussmesh::io::read_mesh(&d.join("v.vtu")).unwrap();
+    let (tips, _) = mean_edge_where(&v, |c| c[0].abs() > 1.7);
+    let (middle, _) = mean_edge_where(&v, |c| c[0].abs() < 0.3 && c[1].hypot(c[2]) > 0.8);
+    println!("| tets | {} tets | tips {tips:.3} | equator {middle:.3} | ratio {:.2} |", v.num_cells(), middle / tips);
+    assert!(middle / tips >= 1.4, "equator / tip edge length in the tets {:.2}", middle / tips);
+    let dihedral = out
+        .lines()
+        .find_map(|l| l.split("dihedral angles ").nth(1))
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse::<f64>().ok())
+        .expect("the report's dihedral angles");
+    assert!(dihedral >= 30.0, "min dihedral {dihedral}");
+}

@@ -394,3 +394,28 @@ fn auto_size_flags_need_size_auto() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("go with --size auto"));
 }
+
+/// The cube with `--size auto` (sizes fine at the edges, where the medial axis meets the
+/// surface, coarse inside): the step control once let a nearly flat boundary fold through that
+/// never left, and the run ended in an internal error; such a run now starts again with every
+/// fold held back.
+#[test]
+fn the_cube_with_auto_sizes_meshes() {
+    let d = tmp("cube");
+    let out = Command::new(env!("CARGO_BIN_EXE_trussmesh"))
+        .args(["mesh", "--dim", "3", "--domain", "max(max(abs(x),abs(y)),abs(z))-1", "--size", "auto"])
+        .args(["--h0", "0.1", "--bbox", "-1,-1,-1,1,1,1", "-o", "c.vtu"])
+        .current_dir(&d)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    println!("{text}");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let dihedral = text
+        .lines()
+        .find_map(|l| l.split("dihedral angles ").nth(1))
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse::<f64>().ok())
+        .expect("the report's dihedral angles");
+    assert!(dihedral >= 35.0, "min dihedral {dihedral}");
+}

@@ -174,7 +174,7 @@ pub fn run(args: SurfaceArgs) -> Result<(), Failure> {
 }
 
 /// The size rule of `surface --phi`.
-enum SizeRule {
+pub(super) enum SizeRule {
     /// h0 everywhere.
     Uniform,
     /// Sizes from curvature with K elements per radian (`--size auto`, or the old
@@ -185,7 +185,7 @@ enum SizeRule {
 }
 
 /// The size rule the flags give; the flags of `--size auto` without it are refused.
-fn size_rule(args: &SurfaceArgs) -> Result<SizeRule, Failure> {
+pub(super) fn size_rule(args: &SurfaceArgs) -> Result<SizeRule, Failure> {
     let auto_flags = args.per_radian.is_some() || args.gradient.is_some() || args.hmax.is_some();
     let refuse = || Failure::bad("--per-radian, --gradient and --hmax go with --size auto (or the old --curvature K)");
     match (args.size.as_deref().map(str::trim), args.curvature) {

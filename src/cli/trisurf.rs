@@ -2,9 +2,10 @@
 //! the inside of a closed surface file, `trussmesh surface --input FILE` remeshes it (see
 //! docs/trisurf.md).
 
+use super::auto_size::is_auto;
 use super::budget::{self, Budget};
 use super::mesh::{constant, parse_expr, split_top, MeshArgs};
-use super::surface::SurfaceArgs;
+use super::surface::{size_rule, SizeRule, SurfaceArgs};
 use super::{output, Failure};
 use glam::DVec3;
 use std::path::Path;
@@ -43,14 +44,8 @@ fn feature_angle(angle: Option<f64>, sharp: bool) -> Result<Option<f64>, Failure
     Ok(sharp.then_some(a))
 }
 
-/// A relative size expression, checked positive at the surface's vertices.
-fn size_expr(src: &str, surf: &TriSurface) -> Result<Expr, Failure> {
-    if src.trim().eq_ignore_ascii_case("auto") {
-        return Err(Failure::bad(
-            "--size auto is not available for surface files yet: give a size expression in x, y, z",
-        ));
-    }
-    let e = parse_expr("--size", src)?;
+/// A relative size expression (parsed), checked positive at the surface's vertices.
+fn checked_size(e: Expr, src: &str, surf: &TriSurface) -> Result<Expr, Failure> {
     for p in surf.points() {
         let v = e.eval(p.x, p.y, p.z);
         if !(v > 0.0 && v.is_finite()) {
@@ -120,15 +115,29 @@ pub fn run_mesh(args: &MeshArgs, file: &str) -> Result<(), Failure> {
     output::check_all(&args.output)?;
     let h0 = positive_h0(args.h0.as_deref().ok_or_else(|| Failure::bad("missing --h0"))?)?;
     let angle = feature_angle(args.feature_angle, !args.no_sharp)?;
-    let surf = read(file)?;
+    let surf = read(file)?.with_feature_angle(angle);
     // A regular tet of edge h0 has volume h0^3 / (6 sqrt 2).
     let tets = surf.volume() * 6.0 * 2f64.sqrt() / (h0 * h0 * h0);
     check_budget(args.max_memory.as_deref(), &surf, "the tet mesh", tets, budget::BYTES_PER_TET)?;
-    let size = args.size.as_deref().map(|s| size_expr(s, &surf)).transpose()?;
-    let size_fn =
-        size.map(|e| std::sync::Arc::new(move |p: DVec3| e.eval(p.x, p.y, p.z)) as trussmesh::mesher::SizeFn3);
+    let given_box = bbox(args.bbox.as_deref())?;
+    let [lo, hi] = given_box.unwrap_or_else(|| surf.padded_box(h0));
+    let size_fn: Option<trussmesh::mesher::SizeFn3> = match args.size.as_deref() {
+        None => None,
+        Some(s) if is_auto(Some(s)) => {
+            let auto = args.auto.resolve(true, h0)?.expect("auto sizes");
+            let grid = auto.grid3(&surf, lo.to_array(), hi.to_array())?;
+            Some(std::sync::Arc::new(move |p: DVec3| trussmesh::Implicit3::value(&*grid, p)))
+        }
+        Some(s) => {
+            let e = checked_size(parse_expr("--size", s)?, s, &surf)?;
+            Some(std::sync::Arc::new(move |p: DVec3| e.eval(p.x, p.y, p.z)))
+        }
+    };
+    if args.size.is_none() {
+        args.auto.resolve(false, h0)?;
+    }
     let mut opts = surf.volume_options(h0, size_fn, angle);
-    if let Some([lo, hi]) = bbox(args.bbox.as_deref())? {
+    if given_box.is_some() {
         opts.bbox = [lo, hi];
         opts.fixed.retain(|p| p.cmpge(lo).all() && p.cmple(hi).all());
     }
@@ -187,15 +196,18 @@ pub fn run_surface(args: &SurfaceArgs, file: &Path, h0: f64) -> Result<(), Failu
     if let Some([lo, hi]) = bbox(args.bbox.as_deref())? {
         opts.bbox = [lo, hi];
     }
-    if let Some(s) = &args.size {
-        if args.curvature.is_some() {
-            return Err(Failure::bad("--size and --curvature cannot be combined"));
-        }
-        let e = size_expr(s, &surf)?;
-        opts = opts.with_size(move |p| e.eval(p.x, p.y, p.z));
+    if args.size.is_some() && args.curvature.is_some() {
+        return Err(Failure::bad("--size and --curvature cannot be combined"));
     }
-    if let Some(k) = args.curvature {
-        opts = opts.with_curvature(k, args.gradient.unwrap_or(0.3), args.hmax.unwrap_or(8.0 * h0));
+    match size_rule(args)? {
+        SizeRule::Uniform => {}
+        SizeRule::Curvature(k) => {
+            opts = opts.with_curvature(k, args.gradient.unwrap_or(0.3), args.hmax.unwrap_or(8.0 * h0));
+        }
+        SizeRule::Relative(e) => {
+            let e = checked_size(e, args.size.as_deref().unwrap_or_default(), &surf)?;
+            opts = opts.with_size(move |p| e.eval(p.x, p.y, p.z));
+        }
     }
     if let Some(n) = args.max_iter {
         opts = opts.with_max_iter(n);

@@ -127,6 +127,13 @@ pub trait Implicit3: Sync + Send {
     fn creases(&self) -> Option<&dyn Creases> {
         None
     }
+    /// The largest principal curvature (its magnitude) of the surface d = 0 near `p`, when the
+    /// geometry knows it better than second differences of its values would: the distance to a
+    /// triangulated surface is flat over each triangle and kinked at each edge. `None` (the
+    /// default): the automatic sizes take the curvature from the values.
+    fn surface_curvature(&self, _p: DVec3) -> Option<f64> {
+        None
+    }
 }
 
 /// Sharp features given exactly: the surface split into smooth patches, the curves where two

@@ -157,12 +157,31 @@ pub fn auto_size_3d(
     let raw = Grid3::sample(domain, bbox[0], bbox[1], grid_h)?;
     let phi = if domain.is_distance() { raw.clone() } else { reinitialize_3d(&raw) };
     let n = phi.dims();
-    let hc = if params.k > 0.0 {
+    let mut hc = if params.k > 0.0 {
         curvature::size_from(phi.values(), &curvature_3d(&raw), grid_h, params.k, params.g)
     } else {
         vec![f64::INFINITY; phi.values().len()]
     };
+    if params.k > 0.0 && domain.surface_curvature(phi.origin()).is_some() {
+        given_curvature_size(domain, &phi, params, &mut hc);
+    }
     let lfs = (params.r > 0.0).then(|| feature_size_3d(&phi, &params.medial));
     let h = finish(phi.values(), &hc, lfs.as_deref(), params, n, grid_h);
     Ok(Grid3::new(phi.origin(), grid_h, n, h)?.with_distance(false))
+}
+
+/// h_curv from the curvature the geometry gives ([`Implicit3::surface_curvature`]) in place of
+/// the grid's second differences, at the nodes within 2 dx of the surface: 1 / (K kappa) at the
+/// surface, less g phi off it (as eq. 4.4 corrects the grid's value), infinite where flat.
+fn given_curvature_size(domain: &dyn Implicit3, phi: &Grid3, params: &SizeParams, hc: &mut [f64]) {
+    use rayon::prelude::*;
+    let (n, dx, origin) = (phi.dims(), phi.spacing(), phi.origin());
+    hc.par_iter_mut().zip(phi.values().par_iter()).enumerate().with_min_len(4096).for_each(|(i, (h, &d))| {
+        if d.abs() > 2.0 * dx {
+            return;
+        }
+        let c = DVec3::new((i % n[0]) as f64, ((i / n[0]) % n[1]) as f64, (i / (n[0] * n[1])) as f64);
+        let kappa = domain.surface_curvature(origin + c * dx).unwrap_or(0.0);
+        *h = if kappa > 0.0 { 1.0 / (params.k * kappa) - params.g * d } else { f64::INFINITY };
+    });
 }

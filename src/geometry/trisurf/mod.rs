@@ -18,6 +18,7 @@
 mod bvh;
 mod check;
 mod creases;
+mod curvature;
 pub mod distance;
 mod features;
 mod options;
@@ -53,6 +54,8 @@ pub struct TriSurface {
     feature_angle: Option<f64>,
     /// The patches and curves at `feature_angle`, made when first asked for.
     creases: std::sync::OnceLock<Option<creases::CreaseData>>,
+    /// The curvature at each vertex at `feature_angle`, made when first asked for.
+    curvature: std::sync::OnceLock<Vec<f64>>,
 }
 
 impl TriSurface {
@@ -82,6 +85,7 @@ impl TriSurface {
             tiny,
             feature_angle: Some(DEFAULT_FEATURE_ANGLE),
             creases: std::sync::OnceLock::new(),
+            curvature: std::sync::OnceLock::new(),
         })
     }
 
@@ -90,6 +94,7 @@ impl TriSurface {
     pub fn with_feature_angle(mut self, angle_deg: Option<f64>) -> TriSurface {
         self.feature_angle = angle_deg;
         self.creases = std::sync::OnceLock::new();
+        self.curvature = std::sync::OnceLock::new();
         self
     }
 
@@ -215,6 +220,9 @@ impl Implicit3 for TriSurface {
     }
     fn creases(&self) -> Option<&dyn super::Creases> {
         self.crease_data().map(|_| self as &dyn super::Creases)
+    }
+    fn surface_curvature(&self, p: DVec3) -> Option<f64> {
+        Some(self.curvature_near(p))
     }
 }
 

@@ -150,7 +150,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TetMesh) -> Result<(), Error> {
         }
         clock.lap("projection");
         snap.guard_inversions(&p, &mut newp);
-        snap.guard_boundary_folds(&p, &mut newp);
+        snap.guard_boundary_folds(&p, &mut newp, ctx.strict_folds);
         clock.lap("step control");
         let max_move = (0..p.len())
             .into_par_iter()

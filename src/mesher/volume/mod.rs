@@ -85,6 +85,9 @@ struct Ctx<'a> {
     polish_worst: f64,
     /// The fixed points: the user's, then the points the start put on sharp edges.
     fixed: Vec<DVec3>,
+    /// The step control lets no boundary fold through, not even one nearly flat already (the
+    /// second run, after a first one ended folded).
+    strict_folds: bool,
 }
 
 impl Ctx<'_> {
@@ -123,6 +126,20 @@ impl Ctx<'_> {
 
 pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, Error> {
     let t0 = Instant::now();
+    match run_once(domain, opts, false) {
+        // A boundary fold the step control let through while nearly flat, and that stayed:
+        // the run again, with every fold held back.
+        Err(Error::Internal { violation: Some(v), .. }) if v.invariant == crate::topology::Invariant::FoldedEdge => {
+            let mut out = run_once(domain, opts, true)?;
+            out.report.seconds = t0.elapsed().as_secs_f64();
+            Ok(out)
+        }
+        r => r,
+    }
+}
+
+fn run_once(domain: &dyn Implicit3, opts: &Options3, strict_folds: bool) -> Result<MeshOutput3, Error> {
+    let t0 = Instant::now();
     let survey = survey(domain, opts)?;
     let (distance, gradient_survey) = decide3(domain, opts.bbox[0], opts.bbox[1]);
     let decided = Declared { inner: domain, distance };
@@ -142,6 +159,7 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
         trace: std::env::var_os("TRUSSMESH_TRACE").is_some(),
         polish_worst: f64::NEG_INFINITY,
         fixed: opts.fixed.clone(),
+        strict_folds,
     };
     let mut mesh = initial_mesh(&mut ctx, survey.estimated_tets)?;
     if ctx.trace {

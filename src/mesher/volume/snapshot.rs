@@ -60,7 +60,9 @@ fn open_ring_record(shell: &EdgeShell, index: &SecondaryMap<TVertexId, u32>) -> 
 
 /// Whether the open ring of record `r` already turns within NEAR_WRAP of a full turn at `p`:
 /// the boundary there is folded nearly flat onto itself, and the step control lets such a ring
-/// through (freezing its nodes would keep the fold; the flat boundary tets leave later).
+/// through (freezing its nodes would keep the fold; the flat boundary tets leave later). Where
+/// one does not leave, the finished mesh fails its check and the run starts again strict
+/// (see `mesher::volume::run`).
 fn nearly_wrapped(p: &[DVec3], r: &[u32]) -> bool {
     let (a, b) = (p[r[0] as usize], p[r[1] as usize]);
     let turn: f64 =
@@ -196,11 +198,11 @@ impl Snapshot {
     /// boundary through each other (`face_pairs`). The vertices of such a ring or pair go
     /// halfway back to `old` (all the way in the last three rounds), the orientation check runs
     /// again on the mixed positions, and the rings are checked again (at most MAX_FOLD_ROUNDS
-    /// rounds, then every node goes back). A ring already within NEAR_WRAP of a full turn is
-    /// let through ([`nearly_wrapped`]). Rings whose vertices
+    /// rounds, then every node goes back). Unless `strict`, a ring already within NEAR_WRAP of
+    /// a full turn is let through ([`nearly_wrapped`]). Rings whose vertices
     /// all kept their place are not checked: `old` is an embedding. Returns how many nodes
     /// went back.
-    pub(super) fn guard_boundary_folds(&self, old: &[DVec3], newp: &mut [DVec3]) -> usize {
+    pub(super) fn guard_boundary_folds(&self, old: &[DVec3], newp: &mut [DVec3], strict: bool) -> usize {
         let mut reverted = 0;
         for round in 0..MAX_FOLD_ROUNDS {
             let q: &[DVec3] = newp;
@@ -213,7 +215,8 @@ impl Snapshot {
                         return false;
                     }
                     let (a, b) = (q[r[0] as usize], q[r[1] as usize]);
-                    !ring_winds_once(a, b, false, r[2..].iter().map(|&k| q[k as usize])) && !nearly_wrapped(old, r)
+                    !ring_winds_once(a, b, false, r[2..].iter().map(|&k| q[k as usize]))
+                        && (strict || !nearly_wrapped(old, r))
                 })
                 .collect();
             let crossing: Vec<usize> = (0..self.face_pairs.len())

@@ -107,6 +107,7 @@ fn a_cut_off_speck_is_dropped_and_the_rest_kept() {
         trace: false,
         polish_worst: 0.0,
         fixed: Vec::new(),
+        strict_folds: false,
     };
     let before = m.num_tets();
     assert_eq!(count_pieces(&m), 2);
