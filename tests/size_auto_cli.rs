@@ -401,10 +401,23 @@ fn auto_size_flags_need_size_auto() {
 /// fold held back.
 #[test]
 fn the_cube_with_auto_sizes_meshes() {
-    let d = tmp("cube");
+    cube_with_auto_sizes("0.1");
+}
+
+#[test]
+#[ignore = "at h0 0.07 and 0.05 the run ends in an internal error (SelfIntersection, about 85 s): a boundary \
+            node moved half an edge onto d = 0 beside the cube's edge crosses a boundary face beyond the \
+            neighbourhood its relocation checks"]
+fn the_cube_with_finer_auto_sizes_meshes() {
+    cube_with_auto_sizes("0.07");
+    cube_with_auto_sizes("0.05");
+}
+
+fn cube_with_auto_sizes(h0: &str) {
+    let d = tmp(&format!("cube_{h0}"));
     let out = Command::new(env!("CARGO_BIN_EXE_trussmesh"))
         .args(["mesh", "--dim", "3", "--domain", "max(max(abs(x),abs(y)),abs(z))-1", "--size", "auto"])
-        .args(["--h0", "0.1", "--bbox", "-1,-1,-1,1,1,1", "-o", "c.vtu"])
+        .args(["--h0", h0, "--bbox", "-1,-1,-1,1,1,1", "-o", "c.vtu"])
         .current_dir(&d)
         .output()
         .unwrap();

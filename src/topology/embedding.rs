@@ -298,6 +298,23 @@ pub(crate) fn ring_winds_once(
     }
 }
 
+/// Every edge whose ring winds other than once (see [`ring_winds_once`]), as (tet, local
+/// vertices), each once, in tet order: what a repair must take apart.
+pub(crate) fn folded_edges(m: &TetMesh) -> Vec<(TetId, usize, usize)> {
+    let tets: Vec<_> = m.tet_ids().collect();
+    tets.par_iter()
+        .with_min_len(1024)
+        .flat_map_iter(|&t| {
+            let tx = m.tet(t);
+            super::EDGE_VERTICES.iter().filter_map(move |&[i, j]| {
+                let (ring, closed) = owned_ring(m, t, i, j)?;
+                (!ring_winds_once(m.pos(tx.v[i]), m.pos(tx.v[j]), closed, ring.iter().map(|&w| m.pos(w))))
+                    .then_some((t, i, j))
+            })
+        })
+        .collect()
+}
+
 /// Checks the tetrahedral embedding of a mesh whose tets are all positive (see the module
 /// notes): the winding of every edge ring, then the boundary surface.
 pub(crate) fn tetrahedral(m: &TetMesh) -> Result<(), InvariantViolation> {

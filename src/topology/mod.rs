@@ -11,7 +11,7 @@
 
 mod delaunay;
 mod disjoint_sets;
-mod embedding;
+pub(crate) mod embedding;
 mod fan;
 mod incidence;
 mod intersect;

@@ -273,7 +273,8 @@ pub(super) fn tag_built_mesh(m: &mut TetMesh, fixed: &[DVec3]) -> usize {
 }
 
 /// Builds the mesh from the kept tets, dropping the smaller side wherever tets meet only at a
-/// vertex or only along an edge, so that the boundary is a 2-manifold.
+/// vertex or only along an edge, so that the boundary is a 2-manifold, and every tet around an
+/// edge whose ring winds more than once, so that the mesh is an embedding.
 pub(super) fn repair_pinches(points: &[DVec3], tets: &mut Vec<[usize; 4]>) -> Result<TetMesh, Error> {
     for _round in 0..64 {
         if tets.is_empty() {
@@ -353,6 +354,18 @@ pub(super) fn repair_pinches(points: &[DVec3], tets: &mut Vec<[usize; 4]>) -> Re
                     if shell.tets.iter().any(|&s| index[s] == k) == small_is_walked {
                         drop[k] = true;
                     }
+                }
+            }
+        }
+        if !any {
+            // Folded edges: the Delaunay of the start's near-lattice points can leave needle
+            // tets by the boundary whose positive tets wind more than once around an edge (a
+            // start that fails the embedding check from its first step); every tet of such a
+            // ring goes.
+            for (t, i, j) in crate::topology::embedding::folded_edges(&m) {
+                any = true;
+                for s in m.edge_shell(t, i, j).tets {
+                    drop[index[s]] = true;
                 }
             }
         }
