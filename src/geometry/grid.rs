@@ -7,9 +7,11 @@
 use super::{Implicit2, Implicit3};
 use crate::Error;
 use glam::{DMat2, DMat3, DVec2, DVec3};
+use rayon::prelude::*;
 
 /// Number of samples covering `[lo, hi]` at spacing `h`; tolerant of round-off in (hi-lo)/h.
-fn count(lo: f64, hi: f64, h: f64) -> usize {
+/// Nodes along an axis from `lo` at spacing `h` up to the first at or past `hi`.
+pub(crate) fn count(lo: f64, hi: f64, h: f64) -> usize {
     ((hi - lo) / h - 1e-9).ceil().max(1.0) as usize + 1
 }
 
@@ -71,12 +73,13 @@ impl Grid2 {
             return Err(Error::BadBox(format!("grid box {min} .. {max}")));
         }
         let (nx, ny) = (count(min.x, max.x, h), count(min.y, max.y, h));
-        let mut values = Vec::with_capacity(nx * ny);
-        for j in 0..ny {
-            for i in 0..nx {
-                values.push(f.value(min + h * DVec2::new(i as f64, j as f64)));
-            }
-        }
+        // A row at a time, rows in parallel: each value is the function's own at its node, so
+        // the grid is the same for any thread count.
+        let mut values = vec![0.0; nx * ny];
+        values.par_chunks_mut(nx).enumerate().for_each(|(j, row)| {
+            let ps: Vec<DVec2> = (0..nx).map(|i| min + h * DVec2::new(i as f64, j as f64)).collect();
+            f.values(&ps, row);
+        });
         let mut g = Grid2::new(min, h, nx, ny, values)?;
         g.distance = f.is_distance();
         Ok(g)
@@ -175,14 +178,15 @@ impl Grid3 {
             return Err(Error::BadBox(format!("grid box {min} .. {max}")));
         }
         let n = [count(min.x, max.x, h), count(min.y, max.y, h), count(min.z, max.z, h)];
-        let mut values = Vec::with_capacity(n[0] * n[1] * n[2]);
-        for k in 0..n[2] {
-            for j in 0..n[1] {
-                for i in 0..n[0] {
-                    values.push(f.value(min + h * DVec3::new(i as f64, j as f64, k as f64)));
-                }
-            }
-        }
+        // A row at a time, rows in parallel (see [`Grid2::sample`]).
+        let total = n[0].checked_mul(n[1]).and_then(|m| m.checked_mul(n[2]));
+        let Some(total) = total else { return Err(Error::BadBox(format!("grid of {n:?} samples"))) };
+        let mut values = vec![0.0; total];
+        values.par_chunks_mut(n[0]).enumerate().for_each(|(r, row)| {
+            let (j, k) = (r % n[1], r / n[1]);
+            let ps: Vec<DVec3> = (0..n[0]).map(|i| min + h * DVec3::new(i as f64, j as f64, k as f64)).collect();
+            f.values(&ps, row);
+        });
         let mut g = Grid3::new(min, h, n, values)?;
         g.distance = f.is_distance();
         Ok(g)

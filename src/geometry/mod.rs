@@ -6,7 +6,7 @@ use glam::{DMat2, DMat3, DVec2, DVec3};
 
 mod csg;
 mod decide;
-mod grid;
+pub(crate) mod grid;
 mod level_set;
 pub mod levelset;
 pub mod polygons;

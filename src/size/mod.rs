@@ -154,7 +154,13 @@ pub fn auto_size_3d(
     params: &SizeParams,
 ) -> Result<Grid3, Error> {
     check_params(params)?;
-    let raw = Grid3::sample(domain, bbox[0], bbox[1], grid_h)?;
+    // Without local feature sizes only the nodes near the surface matter: a distance is then
+    // sampled exactly in a band only (see `sample_band`).
+    let raw = if params.r == 0.0 && domain.is_distance() {
+        sample_band(domain, bbox, grid_h)?
+    } else {
+        Grid3::sample(domain, bbox[0], bbox[1], grid_h)?
+    };
     let phi = if domain.is_distance() { raw.clone() } else { reinitialize_3d(&raw) };
     let n = phi.dims();
     let mut hc = if params.k > 0.0 {
@@ -184,4 +190,94 @@ fn given_curvature_size(domain: &dyn Implicit3, phi: &Grid3, params: &SizeParams
         let kappa = domain.surface_curvature(origin + c * dx).unwrap_or(0.0);
         *h = if kappa > 0.0 { 1.0 / (params.k * kappa) - params.g * d } else { f64::INFINITY };
     });
+}
+
+/// Stride of the coarse pass of [`sample_band`], in grid spacings.
+const BAND_STRIDE: usize = 4;
+/// Half-width of the band [`sample_band`] samples exactly, in grid spacings: the curvature
+/// sizes are set within 2 spacings of the surface from differences reaching one node further.
+const BAND_HALF_WIDTH: f64 = 4.0;
+
+/// A signed distance on the grid of spacing `h` over `bbox`, exact at every node within
+/// BAND_HALF_WIDTH spacings of the surface and trilinear from a coarse pass (every
+/// BAND_STRIDE-th node) elsewhere. A distance changes by at most the distance moved, so where
+/// the corners of a coarse cell all lie farther than the band plus the cell's diagonal, every
+/// node in the cell lies outside the band, on the corners' side: the interpolated value there
+/// is as far and of the same sign. Surfaces from triangle meshes take one nearest-triangle
+/// query per exact node, so the coarse pass saves most of them.
+fn sample_band(domain: &dyn Implicit3, bbox: [DVec3; 2], h: f64) -> Result<Grid3, Error> {
+    use rayon::prelude::*;
+    let coarse = Grid3::sample(domain, bbox[0], bbox[1], h * BAND_STRIDE as f64)?;
+    let count = |a: usize| crate::geometry::grid::count(bbox[0][a], bbox[1][a], h);
+    let n = [count(0), count(1), count(2)];
+    let (cn, cv) = (coarse.dims(), coarse.values());
+    let far = (BAND_HALF_WIDTH + 3f64.sqrt() * BAND_STRIDE as f64) * h;
+    let mut values = vec![0.0; n[0] * n[1] * n[2]];
+    values.par_chunks_mut(n[0]).enumerate().for_each(|(r, row)| {
+        let (j, k) = (r % n[1], r / n[1]);
+        for (i, out) in row.iter_mut().enumerate() {
+            let c = [i, j, k];
+            // The coarse cell holding the node, and where in it.
+            let mut lo = [0usize; 3];
+            let mut t = [0.0f64; 3];
+            for a in 0..3 {
+                lo[a] = (c[a] / BAND_STRIDE).min(cn[a].saturating_sub(2));
+                t[a] = ((c[a] as f64) / BAND_STRIDE as f64 - lo[a] as f64).clamp(0.0, 1.0);
+            }
+            let corner = |d: [usize; 3]| {
+                let q = [0, 1, 2].map(|a| (lo[a] + d[a]).min(cn[a] - 1));
+                cv[q[0] + cn[0] * (q[1] + cn[1] * q[2])]
+            };
+            let mut sum = 0.0;
+            let mut all_far = true;
+            let mut sign = 0.0f64;
+            for d in 0..8 {
+                let dd = [d & 1, (d >> 1) & 1, (d >> 2) & 1];
+                let v = corner(dd);
+                // Every corner far, and all on one side.
+                if v.abs() <= far || (sign != 0.0 && v.signum() != sign) {
+                    all_far = false;
+                    break;
+                }
+                sign = v.signum();
+                let w: f64 = (0..3).map(|a| if dd[a] == 1 { t[a] } else { 1.0 - t[a] }).product();
+                sum += w * v;
+            }
+            *out = if all_far { sum } else { domain.value(bbox[0] + h * DVec3::new(i as f64, j as f64, k as f64)) };
+        }
+    });
+    Ok(Grid3::new(bbox[0], h, n, values)?.with_distance(true))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The band sampling is the exact sampling within the band, and elsewhere as far from the
+    /// surface and on the same side, for shapes that fill the box and shapes far inside it.
+    #[test]
+    fn band_sampling_is_exact_near_the_surface() {
+        let sphere = |p: DVec3| p.length() - 0.7;
+        let slab = |p: DVec3| (p.z - 0.1).abs() - 0.2;
+        let tube = |p: DVec3| (p.x * p.x + p.y * p.y).sqrt() - 0.05;
+        let shapes: [&dyn Implicit3; 3] = [&sphere, &slab, &tube];
+        for (s, f) in shapes.into_iter().enumerate() {
+            for h in [0.013, 0.05] {
+                let b = [DVec3::new(-1.0, -0.9, -1.1), DVec3::new(1.0, 1.05, 0.9)];
+                let exact = Grid3::sample(f, b[0], b[1], h).unwrap();
+                let band = sample_band(f, b, h).unwrap();
+                assert_eq!(exact.dims(), band.dims());
+                let mut interpolated = 0;
+                for (k, (&e, &v)) in exact.values().iter().zip(band.values()).enumerate() {
+                    if e.abs() <= BAND_HALF_WIDTH * h {
+                        assert_eq!(e, v, "shape {s} h {h} node {k}");
+                    } else {
+                        assert!(v.signum() == e.signum() && v.abs() > BAND_HALF_WIDTH * h, "shape {s} node {k}");
+                    }
+                    interpolated += usize::from(e != v);
+                }
+                println!("shape {s}, h {h}: {interpolated} of {} nodes interpolated", exact.values().len());
+            }
+        }
+    }
 }

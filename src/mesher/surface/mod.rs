@@ -126,6 +126,19 @@ const PROJECT_TOL: f64 = 1e-9;
 /// ([`Implicit3::creases`]: a triangulated surface) is meshed smooth first and its features cut
 /// into that mesh; the smooth mesh is the result when holding them fails.
 pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
+    // The size field once for every run below (on a grid from --size auto it may take longer
+    // than the meshing); its time counts in the report's.
+    let t0 = std::time::Instant::now();
+    opts.check()?;
+    let size = opts.size_field(phi)?;
+    let sized = t0.elapsed().as_secs_f64();
+    let mut out = mesh_surface_sized(phi, opts, &size)?;
+    out.report.seconds += sized;
+    Ok(out)
+}
+
+/// [`mesh_surface`] with its size field made.
+fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeField) -> Result<SurfaceOutput, Error> {
     let trace = |e: &Error| {
         if std::env::var_os("TRUSSMESH_TRACE").is_some() {
             eprintln!("holding sharp features failed ({e}): the surface is meshed without them");
@@ -136,21 +149,21 @@ pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<Surfac
         // cleanly (a marching start has bands of nodes projected onto a convex edge, some of
         // them coincident), and the smooth mesh is the fallback.
         let mut invalid = None;
-        let smooth = match mesh_surface_held(phi, opts, false, None, Some(&mut invalid)) {
+        let smooth = match mesh_surface_held(phi, opts, size, false, None, Some(&mut invalid)) {
             Ok(Ok(out)) => out,
             // A smooth mesh that fails the final check (folded or crossing itself where it
             // rounds a corner) is still a start to cut the features into: holding them often
             // mends it. Its error stands if that fails too.
             Ok(Err(e)) | Err(e) => {
                 trace(&e);
-                return match invalid.map(|start| mesh_surface_held(phi, opts, true, Some(start), None)) {
+                return match invalid.map(|start| mesh_surface_held(phi, opts, size, true, Some(start), None)) {
                     Some(Ok(Ok(out))) => Ok(out),
                     _ => Err(e),
                 };
             }
         };
         let start = smooth.mesh.clone();
-        return Ok(match mesh_surface_held(phi, opts, true, Some(start), None) {
+        return Ok(match mesh_surface_held(phi, opts, size, true, Some(start), None) {
             Ok(Ok(mut out)) => {
                 out.report.seconds += smooth.report.seconds;
                 out
@@ -161,11 +174,11 @@ pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<Surfac
             }
         });
     }
-    match mesh_surface_held(phi, opts, true, None, None)? {
+    match mesh_surface_held(phi, opts, size, true, None, None)? {
         Ok(out) => Ok(out),
         Err(e) => {
             trace(&e);
-            mesh_surface_held(phi, opts, false, None, None)?
+            mesh_surface_held(phi, opts, size, false, None, None)?
         }
     }
 }
@@ -177,13 +190,13 @@ pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<Surfac
 fn mesh_surface_held(
     phi: &dyn Implicit3,
     opts: &SurfaceOptions,
+    size: &SizeField,
     sharp: bool,
     given: Option<TriMesh<DVec3>>,
     invalid: Option<&mut Option<TriMesh<DVec3>>>,
 ) -> Result<Result<SurfaceOutput, Error>, Error> {
     let start = std::time::Instant::now();
-    opts.check()?;
-    let size = opts.size_field(phi)?;
+    let size = size.clone();
     let hmin = size.min();
     let tol = PROJECT_TOL * hmin;
     let (mut m, levels, held) = match given {
