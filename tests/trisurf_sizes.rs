@@ -53,11 +53,6 @@ fn triangulated_surfaces_give_their_curvature() {
     assert!(bad.is_empty(), "{bad:#?}");
 }
 
-/// The size at the surface point nearest `p` (the grid at p itself).
-fn size_at(g: &dyn Implicit3, p: DVec3) -> f64 {
-    g.value(p)
-}
-
 #[test]
 fn auto_sizes_of_a_triangulated_ellipsoid_match_its_formula() {
     let surf = from_surface_mesher(ellipsoid_phi, 0.06, 2.3);
@@ -78,7 +73,7 @@ fn auto_sizes_of_a_triangulated_ellipsoid_match_its_formula() {
         (DVec3::new(0.0, 1.0, 0.0), 0.5),
         (DVec3::new(0.0, -0.6, 0.8), 0.5),
     ] {
-        let (a, b) = (size_at(&from_file, p), size_at(&from_formula, p));
+        let (a, b) = (from_file.value(p), from_formula.value(p));
         println!("| {p} | {exact} | {a:.3} | {b:.3} |");
         if !(0.7 * exact..=1.1 * exact).contains(&a) {
             bad.push(format!("{p}: {a:.3} from the triangles for {exact}"));

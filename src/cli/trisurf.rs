@@ -124,7 +124,9 @@ pub fn run_mesh(args: &MeshArgs, file: &str) -> Result<(), Failure> {
     let size_fn: Option<trussmesh::mesher::SizeFn3> = match args.size.as_deref() {
         None => None,
         Some(s) if is_auto(Some(s)) => {
-            let auto = args.auto.resolve(true, h0)?.expect("auto sizes");
+            let Some(auto) = args.auto.resolve(true, h0)? else {
+                return Err(Failure::internal("--size auto gave no automatic sizes"));
+            };
             let grid = auto.grid3(&surf, lo.to_array(), hi.to_array())?;
             Some(std::sync::Arc::new(move |p: DVec3| trussmesh::Implicit3::value(&*grid, p)))
         }
