@@ -173,6 +173,40 @@ fn cube_sharp_edges() {
     }
 }
 
+/// Boxes turned so that no edge lies in a plane of the start lattice (about z, and about a
+/// skew axis): the polish once smoothed a boundary node so that its faces lay over a face two
+/// rings away beside an edge (every tet positive, every edge ring winding once), and the run
+/// ended in an internal error (SelfIntersection) after 99 s at h0 0.08. Each must mesh valid
+/// and meet every target.
+#[test]
+fn turned_boxes_mesh_valid() {
+    turned_boxes(&[("about z by 36.87 deg", 0.6435, 0.0, 0.08), ("about z and x", 0.5, 0.7, 0.1)]);
+}
+
+#[test]
+#[ignore = "open defect: the box turned about z by 15 degrees at h0 0.1 still ends in an internal error \
+            (SelfIntersection, after the strict second run): the force step lays boundary faces beside an \
+            edge over each other where its fold guard does not look (no thin part there); seen at the cube's \
+            edges with --size auto at h0 0.05 from the fourth step"]
+fn box_turned_by_15_degrees_meshes_valid() {
+    turned_boxes(&[("about z by 15 deg", 0.2618, 0.0, 0.1)]);
+}
+
+fn turned_boxes(cases: &[(&str, f64, f64, f64)]) {
+    for &(name, yaw, pitch, h0) in cases {
+        // u = Rx(pitch) Rz(yaw) p; the box |u|_inf <= 0.7.
+        let (cy, sy, cp, sp) = (yaw.cos(), yaw.sin(), pitch.cos(), pitch.sin());
+        let rows = [[cy, -sy, 0.0], [cp * sy, cp * cy, -sp], [sp * sy, sp * cy, cp]];
+        let u: Vec<String> = rows.iter().map(|r| format!("abs({}*x+{}*y+{}*z)", r[0], r[1], r[2])).collect();
+        let text = format!("max(max({},{}),{})-0.7", u[0], u[1], u[2]);
+        let expr = trussmesh::expr::Expr::parse(&text).expect("parses");
+        let d = trussmesh::expr::ExprImplicit3 { expr, distance: true };
+        let o = Options3::uniform(h0, [-1.25; 3], [1.25; 3]);
+        let r = measure(&format!("box turned {name}, h0 = {h0}"), &d, &o, 1.4f64.powi(3));
+        check_all(&r);
+    }
+}
+
 /// The points the start holds on sharp edges lie on the cube's edges (two coordinates at +-1),
 /// about one target length apart, on all twelve edges, and on all eight corners (three at
 /// +-1); a ball has none.

@@ -405,9 +405,10 @@ fn the_cube_with_auto_sizes_meshes() {
 }
 
 #[test]
-#[ignore = "at h0 0.07 and 0.05 the run ends in an internal error (SelfIntersection, about 85 s): a boundary \
-            node moved half an edge onto d = 0 beside the cube's edge crosses a boundary face beyond the \
-            neighbourhood its relocation checks"]
+#[ignore = "at h0 0.07 and 0.05 the run ends in an internal error (SelfIntersection): the relocation and \
+            boundary patches now check the faces around every boundary vertex of their star, but the force \
+            step itself lays boundary faces beside the cube's edges over each other (from the fourth step at \
+            h0 0.05) where its fold guard does not look"]
 fn the_cube_with_finer_auto_sizes_meshes() {
     cube_with_auto_sizes("0.07");
     cube_with_auto_sizes("0.05");

@@ -144,6 +144,13 @@ pub(crate) fn soup_intersection(points: &[DVec3], tris: &[[usize; 3]]) -> Option
 /// Whether two triangles given by vertex indices meet other than in the corners they share
 /// (exact; see [`triangles_meet`]).
 pub(crate) fn faces_meet<T: Copy + PartialEq>(points: impl Fn(T) -> DVec3, t: [T; 3], u: [T; 3]) -> bool {
+    // Boxes strictly apart first (faces sharing a corner have touching boxes).
+    let (pt, pu) = (t.map(&points), u.map(&points));
+    let (lo_t, hi_t) = (pt[0].min(pt[1]).min(pt[2]), pt[0].max(pt[1]).max(pt[2]));
+    let (lo_u, hi_u) = (pu[0].min(pu[1]).min(pu[2]), pu[0].max(pu[1]).max(pu[2]));
+    if hi_t.cmplt(lo_u).any() || hi_u.cmplt(lo_t).any() {
+        return false;
+    }
     // Shared corners first, in matching order.
     let mut ts = [0usize; 3];
     let mut us = [0usize; 3];
@@ -166,7 +173,7 @@ pub(crate) fn faces_meet<T: Copy + PartialEq>(points: impl Fn(T) -> DVec3, t: [T
             nu += 1;
         }
     }
-    triangles_meet(ts.map(|x| points(t[x])), us.map(|y| points(u[y])), shared)
+    triangles_meet(ts.map(|x| pt[x]), us.map(|y| pu[y]), shared)
 }
 
 /// Checks that a triangle mesh in space does not intersect itself.

@@ -7,7 +7,7 @@
 //! region. The apply step glues the new tets to each other and to the tets outside by face
 //! keys, so one routine keeps neighbours, face indices and vertex pointers right for all ops.
 
-use super::tetmesh::{face_key, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_VERTICES};
+use super::tetmesh::{face_key, TVertex, TVertexId, Tet, TetId, TetMesh, EDGE_VERTICES, FACE_VERTICES};
 use super::{embedding::faces_meet, embedding::ring_winds_once, Refusal, VertexTag};
 use crate::predicates::{orient3d, Sign};
 use crate::quality::dihedral_angle_at;
@@ -375,6 +375,10 @@ impl TetMesh {
         let mut plan = self.patch(s.tets.iter().copied().collect(), new);
         plan.add = Some((p, tag));
         plan.min_quality = worst;
+        // A boundary edge split off the edge (onto d = 0) changes the boundary surface.
+        if !s.closed && !self.patch_unfolded(&plan) {
+            return Err(Refusal::WouldFold);
+        }
         Ok(plan)
     }
 
@@ -478,6 +482,81 @@ impl TetMesh {
                 return false;
             }
         }
+        self.patch_faces_clear(plan, at, on_boundary)
+    }
+
+    /// Whether the boundary faces a patch makes stay clear of the boundary around them: each
+    /// meets no other boundary face (of the patch, or of a tet outside it around a boundary
+    /// vertex of the patch) other than in shared corners. `at` and `on_boundary` read the
+    /// patch's vertices (the null key is the added one).
+    fn patch_faces_clear(
+        &self,
+        plan: &TetPatch,
+        at: impl Fn(TVertexId) -> DVec3,
+        on_boundary: impl Fn(TVertexId) -> bool,
+    ) -> bool {
+        let sorted = |mut f: [TVertexId; 3]| {
+            f.sort_unstable();
+            f
+        };
+        // Faces of the new tets that no other new tet shares, and no tet outside either.
+        let mut faces: SmallVec<[[TVertexId; 3]; 32]> = SmallVec::new();
+        for (v, _) in &plan.new {
+            for fv in FACE_VERTICES {
+                faces.push(fv.map(|i| v[i]));
+            }
+        }
+        let keys: SmallVec<[[TVertexId; 3]; 32]> = faces.iter().map(|&f| sorted(f)).collect();
+        let outside = |t: TetId| !plan.old.contains(&t);
+        let mut mine: SmallVec<[[TVertexId; 3]; 16]> = SmallVec::new();
+        for (k, &f) in faces.iter().enumerate() {
+            if keys.iter().filter(|&&x| x == keys[k]).count() > 1 {
+                continue;
+            }
+            let shared_outside = !f.iter().any(|w| w.is_null())
+                && self.vertex_tets(f[0]).into_iter().any(|t| {
+                    let v = self.tets[t].v;
+                    outside(t) && v.contains(&f[1]) && v.contains(&f[2])
+                });
+            if !shared_outside {
+                mine.push(f);
+            }
+        }
+        if mine.is_empty() {
+            return true;
+        }
+        // The boundary faces outside the patch around its boundary vertices.
+        let mut near: Vec<[TVertexId; 3]> = Vec::new();
+        let mut seen: SmallVec<[TVertexId; 32]> = SmallVec::new();
+        for f in &mine {
+            for &w in f {
+                if w.is_null() || !on_boundary(w) || seen.contains(&w) {
+                    continue;
+                }
+                seen.push(w);
+                for t in self.vertex_tets(w) {
+                    if !outside(t) {
+                        continue;
+                    }
+                    let tx = &self.tets[t];
+                    for g in 0..4 {
+                        if tx.adj[g].is_none() {
+                            near.push(sorted(self.face_vertices(t, g)));
+                        }
+                    }
+                }
+            }
+        }
+        near.sort_unstable();
+        near.dedup();
+        for (k, &f) in mine.iter().enumerate() {
+            let key = sorted(f);
+            for &g in mine[k + 1..].iter().chain(near.iter()) {
+                if sorted(g) != key && faces_meet(&at, f, g) {
+                    return false;
+                }
+            }
+        }
         true
     }
 
@@ -496,34 +575,55 @@ impl TetMesh {
         if !on_boundary(v) {
             return Ok(());
         }
-        // The boundary faces of v against those of its star and of the tets next to it: a
-        // move across a thin part must not push one sheet of the boundary through another.
+        // The boundary faces of v against the boundary faces around every boundary vertex of
+        // its star (and those of the tets next to the star): a move must not lay v's faces
+        // over the surface around them, nor push one sheet of the boundary through another
+        // across a thin part.
         let mut mine: SmallVec<[[TVertexId; 3]; 12]> = SmallVec::new();
-        let mut near: SmallVec<[[TVertexId; 3]; 64]> = SmallVec::new();
+        let mut near: Vec<[TVertexId; 3]> = Vec::new();
+        let mut around: SmallVec<[TVertexId; 32]> = SmallVec::new();
+        let push_boundary_faces = |t: TetId, near: &mut Vec<[TVertexId; 3]>| {
+            let tx = &self.tets[t];
+            for g in 0..4 {
+                if tx.adj[g].is_none() {
+                    let face = self.face_vertices(t, g);
+                    if !face.contains(&v) {
+                        near.push(face);
+                    }
+                }
+            }
+        };
         for &t in star {
             let tx = self.tets[t];
             for f in 0..4 {
+                let w = tx.v[f];
+                if w != v && on_boundary(w) && !around.contains(&w) {
+                    around.push(w);
+                }
                 match tx.adj[f] {
                     None => {
                         let face = self.face_vertices(t, f);
                         if face.contains(&v) {
                             mine.push(face);
-                        } else {
-                            near.push(face);
                         }
                     }
-                    Some((u, _)) if !star.contains(&u) => {
-                        let ux = self.tets[u];
-                        for g in 0..4 {
-                            if ux.adj[g].is_none() {
-                                near.push(self.face_vertices(u, g));
-                            }
-                        }
-                    }
+                    Some((u, _)) if !star.contains(&u) => push_boundary_faces(u, &mut near),
                     Some(_) => {}
                 }
             }
         }
+        for &w in &around {
+            for t in self.vertex_tets(w) {
+                if !star.contains(&t) {
+                    push_boundary_faces(t, &mut near);
+                }
+            }
+        }
+        for &t in star {
+            push_boundary_faces(t, &mut near);
+        }
+        near.sort_unstable();
+        near.dedup();
         for (k, &f) in mine.iter().enumerate() {
             for &g in mine[k + 1..].iter().chain(near.iter()) {
                 if faces_meet(at, f, g) {

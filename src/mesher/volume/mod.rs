@@ -48,7 +48,7 @@ use crate::geometry::{decide3, Declared, Implicit3};
 use crate::mesher::MeshOutput3;
 use crate::mesher::Report;
 use crate::quality::tet_dihedral_quality;
-use crate::topology::{Level, TetId};
+use crate::topology::{Invariant, Level, TetId};
 use crate::Error;
 use boundary::{count_off, settle_boundary};
 use carve::drop_specks;
@@ -127,9 +127,12 @@ impl Ctx<'_> {
 pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, Error> {
     let t0 = Instant::now();
     match run_once(domain, opts, false) {
-        // A boundary fold the step control let through while nearly flat, and that stayed:
-        // the run again, with every fold held back.
-        Err(Error::Internal { violation: Some(v), .. }) if v.invariant == crate::topology::Invariant::FoldedEdge => {
+        // A boundary fold the step control let through while nearly flat, and that stayed (a
+        // folded edge, or boundary faces laid over each other): the run again, with every
+        // fold held back.
+        Err(Error::Internal { violation: Some(v), .. })
+            if matches!(v.invariant, Invariant::FoldedEdge | Invariant::SelfIntersection) =>
+        {
             let mut out = run_once(domain, opts, true)?;
             out.report.seconds = t0.elapsed().as_secs_f64();
             Ok(out)
