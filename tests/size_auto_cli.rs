@@ -404,14 +404,19 @@ fn the_cube_with_auto_sizes_meshes() {
     cube_with_auto_sizes("0.1");
 }
 
+/// At h0 0.05 the first two runs end with the boundary laid over itself (the force step lays
+/// boundary faces beside the cube's edges over each other, where its fold guard does not look);
+/// the third, from a start lattice shifted by a third of a side, meshes it (about 80 s).
 #[test]
-#[ignore = "at h0 0.07 and 0.05 the run ends in an internal error (SelfIntersection): the relocation and \
-            boundary patches now check the faces around every boundary vertex of their star, but the force \
-            step itself lays boundary faces beside the cube's edges over each other (from the fourth step at \
-            h0 0.05) where its fold guard does not look"]
 fn the_cube_with_finer_auto_sizes_meshes() {
-    cube_with_auto_sizes("0.07");
     cube_with_auto_sizes("0.05");
+}
+
+#[test]
+#[ignore = "not reached: at h0 0.07 the first two runs end with the boundary laid over itself and the third, \
+            from a shifted start lattice, gives a valid mesh at 0.0 degrees (with warnings)"]
+fn the_cube_with_auto_sizes_at_h0_0_07_meshes() {
+    cube_with_auto_sizes("0.07");
 }
 
 fn cube_with_auto_sizes(h0: &str) {

@@ -88,6 +88,8 @@ struct Ctx<'a> {
     /// The step control lets no boundary fold through, not even one nearly flat already (the
     /// second run, after a first one ended folded).
     strict_folds: bool,
+    /// The start lattice's origin moves back by this many lattice sides on every axis.
+    start_shift: f64,
 }
 
 impl Ctx<'_> {
@@ -126,22 +128,30 @@ impl Ctx<'_> {
 
 pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, Error> {
     let t0 = Instant::now();
-    match run_once(domain, opts, false) {
-        // A boundary fold the step control let through while nearly flat, and that stayed (a
-        // folded edge, or boundary faces laid over each other): the run again, with every
-        // fold held back.
-        Err(Error::Internal { violation: Some(v), .. })
-            if matches!(v.invariant, Invariant::FoldedEdge | Invariant::SelfIntersection) =>
-        {
-            let mut out = run_once(domain, opts, true)?;
-            out.report.seconds = t0.elapsed().as_secs_f64();
-            Ok(out)
+    let folded = |r: &Result<MeshOutput3, Error>| {
+        matches!(r, Err(Error::Internal { violation: Some(v), .. })
+            if matches!(v.invariant, Invariant::FoldedEdge | Invariant::SelfIntersection))
+    };
+    // A boundary fold the step control let through while nearly flat, and that stayed (a
+    // folded edge, or boundary faces laid over each other): the run again, with every fold
+    // held back; then, if the boundary still folds, from a start lattice shifted by a third of
+    // its side (where the boundary folds depends on how the lattice meets the domain's edges).
+    let mut r = run_once(domain, opts, false, 0.0);
+    for (strict, shift) in [(true, 0.0), (true, START_SHIFT)] {
+        if !folded(&r) {
+            break;
         }
-        r => r,
+        r = run_once(domain, opts, strict, shift);
     }
+    let mut out = r?;
+    out.report.seconds = t0.elapsed().as_secs_f64();
+    Ok(out)
 }
 
-fn run_once(domain: &dyn Implicit3, opts: &Options3, strict_folds: bool) -> Result<MeshOutput3, Error> {
+/// The start lattice's shift, in lattice sides, of a run's last attempt (see [`run`]).
+const START_SHIFT: f64 = 1.0 / 3.0;
+
+fn run_once(domain: &dyn Implicit3, opts: &Options3, strict_folds: bool, shift: f64) -> Result<MeshOutput3, Error> {
     let t0 = Instant::now();
     let survey = survey(domain, opts)?;
     let (distance, gradient_survey) = decide3(domain, opts.bbox[0], opts.bbox[1]);
@@ -163,6 +173,7 @@ fn run_once(domain: &dyn Implicit3, opts: &Options3, strict_folds: bool) -> Resu
         polish_worst: f64::NEG_INFINITY,
         fixed: opts.fixed.clone(),
         strict_folds,
+        start_shift: shift,
     };
     let mut mesh = initial_mesh(&mut ctx, survey.estimated_tets)?;
     if ctx.trace {

@@ -136,8 +136,8 @@ fn jitter(i: u64) -> DVec3 {
 /// BCC lattice points inside, thinned by the size function; Delaunay; carve; repair pinches.
 pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Error> {
     let opts = ctx.opts;
-    let [lo, hi] = opts.bbox;
     let a = LATTICE * opts.h0;
+    let [lo, hi] = [opts.bbox[0] - DVec3::splat(ctx.start_shift * a), opts.bbox[1]];
     let n = ((hi - lo) / a).ceil().as_uvec3() + 1;
     let uniform = opts.size.is_none();
     let mut pts: Vec<DVec3> = Vec::with_capacity((estimate / 6.0) as usize + 16);

@@ -108,6 +108,7 @@ fn a_cut_off_speck_is_dropped_and_the_rest_kept() {
         polish_worst: 0.0,
         fixed: Vec::new(),
         strict_folds: false,
+        start_shift: 0.0,
     };
     let before = m.num_tets();
     assert_eq!(count_pieces(&m), 2);
