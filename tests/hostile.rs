@@ -231,7 +231,8 @@ fn run(c: &Case, dir: &std::path::Path, k: usize) -> Outcome {
     } else if three_d {
         find("dihedral angles").unzip()
     } else {
-        find("q min").unzip()
+        // With a metric the floor applies to the quality measured in the metric.
+        find("metric q min").or_else(|| find("q min")).unzip()
     };
     let mut what = line.unwrap_or_default();
     if let Some(w) = stdout.lines().find(|l| l.starts_with("warning")) {

@@ -210,11 +210,18 @@ fn near_fixed(sorted: &[DVec2], t: [DVec2; 3]) -> bool {
     sorted[first..].iter().take_while(|p| p.x <= hi.x).any(|p| p.y >= lo.y && p.y <= hi.y)
 }
 
+/// Boundary vertices (or edges) tried, nearest first, to put a fixed point outside the mesh in.
+const RESTORE_TRIES: usize = 8;
+
 /// Fixed points whose triangles were all carved away go back in: inside the mesh by insertion,
-/// outside it by moving the nearest boundary vertex onto them.
+/// outside it by moving a near boundary vertex onto them, or else by splitting a near boundary
+/// edge at them.
 pub(super) fn restore_fixed(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     use crate::topology::Location;
-    for &p in &ctx.opts.fixed {
+    // The sharp corners found from d come after the given points; one that cannot be put in
+    // (a stretched start far from it) is left free, see [`corners_left_free`].
+    let given = ctx.opts.fixed.len() - ctx.report.feature_points;
+    for (i, &p) in ctx.opts.fixed.iter().enumerate() {
         if m.vertices().any(|(_, v)| v.tag == VertexTag::Fixed && v.pos == p) {
             continue;
         }
@@ -224,20 +231,23 @@ pub(super) fn restore_fixed(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Err
             Location::Face(f) => m.insert_in_face(f, p).ok(),
             Location::Edge(h) => m.split_edge(h, p).ok(),
             Location::Outside(_) => {
-                let mut best: Option<(f64, VertexId)> = None;
-                for v in m.vertex_ids() {
-                    if m.is_boundary_vertex(v) && m.tag(v) != VertexTag::Fixed {
-                        let d = m.pos(v).distance(p);
-                        if best.is_none_or(|(bd, _)| d < bd) {
-                            best = Some((d, v));
-                        }
-                    }
-                }
-                best.and_then(|(_, v)| m.relocate(v, p).ok().map(|_| v))
+                // The nearest boundary vertex whose move keeps its triangles positive (in a
+                // stretched start the nearest one may fold, a neighbour along the side not).
+                let mut near: Vec<(f64, VertexId)> = m
+                    .vertex_ids()
+                    .filter(|&v| m.is_boundary_vertex(v) && m.tag(v) != VertexTag::Fixed)
+                    .map(|v| (m.pos(v).distance(p), v))
+                    .collect();
+                near.sort_by(|a, b| a.0.total_cmp(&b.0));
+                near.iter()
+                    .take(RESTORE_TRIES)
+                    .find_map(|&(_, v)| m.relocate(v, p).ok().map(|_| v))
+                    .or_else(|| split_toward(m, p))
             }
         };
         match v {
             Some(v) => m.set_tag(v, VertexTag::Fixed),
+            None if i >= given => {}
             None => {
                 return Err(Error::Invalid(format!(
                     "fixed point ({}, {}) could not be placed in the mesh: it is too close to another node or outside the domain",
@@ -247,6 +257,55 @@ pub(super) fn restore_fixed(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Err
         }
     }
     Ok(())
+}
+
+/// The sharp corners found from d (after the given fixed points in the options) that
+/// [`restore_fixed`] could not put in: they are left free, and the report says so.
+pub(super) fn corners_left_free(ctx: &Ctx, m: &TriMesh<DVec2>) -> Vec<DVec2> {
+    let given = ctx.opts.fixed.len() - ctx.report.feature_points;
+    ctx.opts.fixed[given..]
+        .iter()
+        .copied()
+        .filter(|&p| !m.vertices().any(|(_, v)| v.tag == VertexTag::Fixed && v.pos == p))
+        .collect()
+}
+
+/// Puts `p`, outside the mesh, in by splitting one of the boundary edges nearest to it at `p`:
+/// the edge's triangle becomes two, with the triangle between the edge and `p` added. Only an
+/// edge whose two new triangles are positive and whose added triangle holds no vertex.
+fn split_toward(m: &mut TriMesh<DVec2>, p: DVec2) -> Option<VertexId> {
+    use crate::predicates::{orient2d, Sign};
+    let seg_dist = |a: DVec2, b: DVec2| {
+        let t = ((p - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+        (a + (b - a) * t).distance(p)
+    };
+    let mut edges: Vec<(f64, HalfEdgeId)> = m
+        .half_edge_ids()
+        .filter(|&h| m.face_of(h).is_some() && m.is_boundary_edge(h))
+        .map(|h| (seg_dist(m.pos(m.origin(h)), m.pos(m.dest(h))), h))
+        .collect();
+    edges.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for &(_, h) in edges.iter().take(RESTORE_TRIES) {
+        let (a, b) = (m.pos(m.origin(h)), m.pos(m.dest(h)));
+        // p beyond the edge (the mesh is on its left).
+        if orient2d(a, b, p) != Sign::Negative {
+            continue;
+        }
+        let holds = m.vertex_ids().any(|v| {
+            let q = m.pos(v);
+            q != a
+                && q != b
+                && orient2d(b, a, q) != Sign::Negative
+                && orient2d(a, p, q) != Sign::Negative
+                && orient2d(p, b, q) != Sign::Negative
+        });
+        if !holds {
+            if let Ok(v) = m.split_edge(h, p) {
+                return Some(v);
+            }
+        }
+    }
+    None
 }
 
 /// Drops the pieces (edge-connected) of a carved triangle list that have no triangle with all

@@ -311,9 +311,10 @@ pub(crate) fn run_moving(
         Projection::Auto => Projection::FirstOrder,
         p => p,
     };
-    // A fresh mesh holds the domain's sharp corners fixed (not with a metric, whose sizes
-    // need not follow the corners).
-    let corners = if start.is_none() && opts.metric.is_none() && opts.sharp_corners {
+    // A fresh mesh holds the domain's sharp corners fixed (with a metric too: left free, the
+    // projection rounds them off and the square loses area at each). A corner the start
+    // cannot reach is left free with a note (see `carve::corners_left_free`).
+    let corners = if start.is_none() && opts.sharp_corners {
         features::find(domain, opts, survey.h_floor, &|p| project_point(domain, projection, opts.h0, p))?
     } else {
         Vec::new()

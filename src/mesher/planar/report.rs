@@ -74,7 +74,19 @@ impl std::fmt::Display for Report<QualityStats> {
         if let Some(m) = &self.metric {
             write!(f, "\nmetric: {m}")?;
         }
-        if q.triangles > 0 && (q.q_min.is_nan() || q.q_min < crate::mesher::report::Q_FLOOR) {
+        // With a metric the triangles are meant to be stretched: their quality is measured in
+        // the metric, and the isotropic q says nothing about them.
+        if let Some(m) = self.metric.as_ref().filter(|m| m.q_min.is_nan() || m.q_min < crate::mesher::report::Q_FLOOR) {
+            write!(
+                f,
+                "\nwarning: poor triangles in the metric: metric q min {:.4} is below {}",
+                m.q_min,
+                crate::mesher::report::Q_FLOOR
+            )?;
+        } else if self.metric.is_none()
+            && q.triangles > 0
+            && (q.q_min.is_nan() || q.q_min < crate::mesher::report::Q_FLOOR)
+        {
             write!(
                 f,
                 "\nwarning: poor triangles: q min {:.4} is below {} (angles {:.1} to {:.1} degrees)",

@@ -126,6 +126,16 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2
     }
     let t = Instant::now();
     let mut out = carve(ctx, m, 0.0)?;
+    let free = super::carve::corners_left_free(ctx, &out);
+    if !free.is_empty() {
+        ctx.report.feature_points -= free.len();
+        let at: Vec<String> = free.iter().map(|p| format!("({:.4}, {:.4})", p.x, p.y)).collect();
+        ctx.report.notes.push(format!(
+            "{} sharp corner(s) found at {} could not be held (the start mesh is too stretched there) and may be rounded off; give them as fixed points to hold them",
+            free.len(),
+            at.join(", ")
+        ));
+    }
     let carved = out.num_faces();
     let splits =
         if ctx.metric.is_none() && ctx.internal.is_none() { fill_to_estimate(ctx, &mut out, estimate)? } else { 0 };
