@@ -1,6 +1,7 @@
 //! Triangulated geometry: signed-distance queries per second and the cost of building the
 //! geometry (checks, hierarchy, normals) on icospheres of about 2 10^4 to 1.3 10^6 triangles,
-//! and whole volume runs inside them at a fixed h0 against the input size (to 3.3 10^5).
+//! and whole runs against the input size at a fixed h0: tetrahedra inside them, and their
+//! surfaces remeshed.
 //!
 //! `cargo bench --bench trisurf` (criterion; `-- distance` for the queries only).
 
@@ -8,7 +9,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use glam::DVec3;
 use std::collections::HashMap;
 use trussmesh::geometry::TriSurface;
-use trussmesh::{mesh_3d, Implicit3};
+use trussmesh::{mesh_3d, mesh_surface, Implicit3};
 
 /// The unit icosphere after `levels` subdivisions: 20 4^levels triangles.
 fn icosphere(levels: u32) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
@@ -102,8 +103,7 @@ fn bench(c: &mut Criterion) {
     dist.finish();
     let mut build = c.benchmark_group("build");
     build.sample_size(10);
-    // The largest input is left out of the whole-run groups (tens of seconds a sample).
-    let built = &built[..3];
+    let built = &built[..];
     for (n, p, t) in built {
         build.throughput(Throughput::Elements(*n as u64));
         build.bench_function(BenchmarkId::new("check and index", n), |b| {
@@ -119,6 +119,14 @@ fn bench(c: &mut Criterion) {
         run.bench_function(BenchmarkId::new("mesh_3d", n), |b| b.iter(|| mesh_3d(&s, &opts).expect("mesh")));
     }
     run.finish();
+    let mut remesh = c.benchmark_group("surface remesh h0 0.1");
+    remesh.sample_size(10);
+    for (n, p, t) in built {
+        let s = TriSurface::new(p.clone(), t.clone()).expect("icosphere");
+        let opts = s.surface_options(0.1);
+        remesh.bench_function(BenchmarkId::new("mesh_surface", n), |b| b.iter(|| mesh_surface(&s, &opts).expect("mesh")));
+    }
+    remesh.finish();
 }
 
 criterion_group!(benches, bench);

@@ -109,6 +109,38 @@ fn distance_matches_brute_force() {
     assert!((part().volume() / PART_VOLUME - 1.0).abs() < 0.01, "part volume {}", part().volume());
 }
 
+/// The bounded query (`value_near`, which spares the surface mesher's start the deep queries):
+/// exactly `value` bit for bit wherever the surface is within the radius, and `None` only where
+/// it is farther.
+#[test]
+fn bounded_queries_agree_with_full_ones() {
+    println!("| input | radius | points | exact answers | none (farther) |");
+    for (name, s) in [("sphere", sphere()), ("torus", torus()), ("part", part())] {
+        for r in [0.01, 0.1, 0.5] {
+            let pts = random_in(s, 4000, SEED ^ 5);
+            let (mut exact, mut none) = (0, 0);
+            for &p in &pts {
+                let v = s.value(p);
+                match s.value_near(p, r) {
+                    Some(w) => {
+                        assert_eq!(w.to_bits(), v.to_bits(), "{name} at {p}: {w} vs {v}");
+                        exact += 1;
+                    }
+                    None => {
+                        assert!(v.abs() >= r, "{name} at {p}: none within {r} but d = {v}");
+                        none += 1;
+                    }
+                }
+                if v.abs() < r {
+                    assert!(s.value_near(p, r).is_some(), "{name} at {p}: d = {v} within {r}");
+                }
+            }
+            println!("| {name} | {r} | {} | {exact} | {none} |", pts.len());
+            assert!(none > 0 && exact > 0, "{name} r {r}: both kinds of answer are exercised");
+        }
+    }
+}
+
 #[test]
 fn sign_right_at_random_points() {
     use rayon::prelude::*;

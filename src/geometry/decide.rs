@@ -169,6 +169,9 @@ impl Implicit3 for Declared<'_, dyn Implicit3 + '_> {
     fn value_and_gradient(&self, p: DVec3) -> (f64, DVec3) {
         self.inner.value_and_gradient(p)
     }
+    fn value_near(&self, p: DVec3, r: f64) -> Option<f64> {
+        self.inner.value_near(p, r)
+    }
     fn values(&self, ps: &[DVec3], out: &mut [f64]) {
         self.inner.values(ps, out)
     }

@@ -101,6 +101,14 @@ pub trait Implicit3: Sync + Send {
     fn value_and_gradient(&self, p: DVec3) -> (f64, DVec3) {
         (self.value(p), self.gradient(p))
     }
+    /// The value at `p` where the surface d = 0 may pass within `r` of `p`: `Some` of exactly
+    /// `value(p)`, or `None` when the geometry knows that its nearest point is farther than `r`
+    /// (a signed distance that can bound its search: a triangulated surface), leaving the
+    /// caller to take the sign from a neighbour (a segment shorter than `r` from `p` does not
+    /// cross d = 0). The default is always `Some(value(p))`.
+    fn value_near(&self, p: DVec3, _r: f64) -> Option<f64> {
+        Some(self.value(p))
+    }
     /// The values at many points, bit for bit as `value`: see [`Implicit2::values`].
     fn values(&self, ps: &[DVec3], out: &mut [f64]) {
         batch(ps, out, |p| self.value(p));

@@ -66,14 +66,23 @@ impl Bvh {
     /// boxes no nearer than the best so far are skipped; ties keep the first triangle found, in
     /// a fixed traversal order, so the answer is the same on every run.
     pub(super) fn closest(&self, p: DVec3) -> Closest {
+        self.closest_below(p, f64::INFINITY)
+    }
+
+    /// [`Bvh::closest`] among the points closer than `sqrt(bound2)` to `p` (boxes no nearer
+    /// are skipped from the start): the same answer when the nearest point is that close, and
+    /// `dist2` infinite when none is. Far from the surface a query that needs only to know
+    /// that nothing is near is then as cheap as one next to it.
+    pub(super) fn closest_below(&self, p: DVec3, bound2: f64) -> Closest {
         let mut best = Closest { point: p, dist2: f64::INFINITY, triangle: 0, feature: Feature::Face };
+        let mut bound = bound2;
         let mut stack: [u32; 64] = [0; 64];
         let mut top = 1usize;
         while top > 0 {
             top -= 1;
             let ni = stack[top] as usize;
             let n = &self.nodes[ni];
-            if box_dist2(n.lo, n.hi, p) >= best.dist2 {
+            if box_dist2(n.lo, n.hi, p) >= bound {
                 continue;
             }
             if n.count > 0 {
@@ -81,8 +90,9 @@ impl Bvh {
                     let [a, b, c] = self.corners[s];
                     let (q, f) = closest_on_triangle(p, a, b, c);
                     let d2 = (p - q).length_squared();
-                    if d2 < best.dist2 {
+                    if d2 < bound {
                         best = Closest { point: q, dist2: d2, triangle: self.order[s] as usize, feature: f };
+                        bound = d2;
                     }
                 }
                 continue;

@@ -186,10 +186,14 @@ impl TriSurface {
 
     /// The signed distance and its gradient at `p`, from one nearest-point query.
     pub fn distance_and_gradient(&self, p: DVec3) -> (f64, DVec3) {
-        let c = self.closest(p);
+        self.signed(p, &self.closest(p))
+    }
+
+    /// The signed distance and gradient at `p` from its nearest point `c`.
+    fn signed(&self, p: DVec3, c: &Closest) -> (f64, DVec3) {
         let v = p - c.point;
         let len = c.dist2.sqrt();
-        let n = self.pseudo_normal(&c);
+        let n = self.pseudo_normal(c);
         if len <= self.tiny {
             return (len.copysign(v.dot(n)), n);
         }
@@ -214,6 +218,10 @@ impl Implicit3 for TriSurface {
     }
     fn value_and_gradient(&self, p: DVec3) -> (f64, DVec3) {
         self.distance_and_gradient(p)
+    }
+    fn value_near(&self, p: DVec3, r: f64) -> Option<f64> {
+        let c = self.bvh.closest_below(p, r * r);
+        c.dist2.is_finite().then(|| self.signed(p, &c).0)
     }
     fn is_distance(&self) -> bool {
         true

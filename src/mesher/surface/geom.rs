@@ -154,7 +154,13 @@ pub fn thinnest(phi: &dyn Implicit3, on: &[DVec3], h: f64, reach: f64, tol: f64)
                     if t > reach {
                         break;
                     }
-                    let v = phi.value(p + side * t * n);
+                    // Nothing within 1.5 steps of the sample (a bounded query, see
+                    // `Implicit3::value_near`): the step from the last sample, more than half a
+                    // step from the surface and not flipped, crossed nothing, so the sign stays.
+                    let Some(v) = phi.value_near(p + side * t * n, 1.5 * (t - before)) else {
+                        before = t;
+                        continue;
+                    };
                     if side * v < -slack {
                         // The crossing between the two samples, by bisection.
                         let (mut lo, mut hi) = (before, t);

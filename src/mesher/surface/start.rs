@@ -68,14 +68,20 @@ pub fn march(phi: &dyn Implicit3, bbox: [DVec3; 2], h: f64) -> Result<Marched, E
     // Sampled in parallel by z-slabs (each value is independent; the order of the vector is
     // fixed, so the result does not depend on the thread count).
     let slab = n[0] * n[1];
-    let mut f = vec![0.0; total as usize];
-    f.par_chunks_mut(slab).enumerate().for_each(|(k, out)| {
+    // Exact values within REACH spacings of the surface (every corner of a cube that phi = 0
+    // crosses is within its diagonal, sqrt 3 spacings, of it); farther nodes, where the
+    // geometry can tell that nothing is near (`value_near`), only need their sign, which
+    // [`fill_signs`] carries over from their neighbours.
+    let reach = REACH * h;
+    let mut near: Vec<Option<f64>> = vec![None; total as usize];
+    near.par_chunks_mut(slab).enumerate().for_each(|(k, out)| {
         for j in 0..n[1] {
             for i in 0..n[0] {
-                out[i + n[0] * j] = phi.value(at(i, j, k));
+                out[i + n[0] * j] = phi.value_near(at(i, j, k), reach);
             }
         }
     });
+    let f = fill_signs(near, n, reach, || phi.value(at(0, 0, 0)));
     let (mut neg, mut pos) = (false, false);
     for (m, &v) in f.iter().enumerate() {
         if !v.is_finite() {
@@ -171,6 +177,55 @@ pub fn march(phi: &dyn Implicit3, bbox: [DVec3; 2], h: f64) -> Result<Marched, E
         }
     }
     Ok(Marched { points, triangles })
+}
+
+/// Spacings within which [`march`] asks for exact values.
+const REACH: f64 = 2.0;
+
+/// The grid values `near` (sides `n`) with every unknown node (`None`) given the value
+/// `reach` with the sign of a known neighbour, breadth first from the known nodes in index
+/// order. A node with nothing within `reach` (more than a spacing) of it has the sign of each
+/// neighbour: the grid edge between them does not cross the surface. With no known node at
+/// all, the sign comes from `first` (the value at node 0).
+fn fill_signs(mut near: Vec<Option<f64>>, n: [usize; 3], reach: f64, first: impl FnOnce() -> f64) -> Vec<f64> {
+    if near.iter().all(Option::is_some) {
+        return near.into_iter().flatten().collect();
+    }
+    let mut queue: std::collections::VecDeque<usize> = (0..near.len()).filter(|&m| near[m].is_some()).collect();
+    if queue.is_empty() {
+        near[0] = Some(first());
+        queue.push_back(0);
+    }
+    let (sx, sy) = (n[0], n[0] * n[1]);
+    while let Some(m) = queue.pop_front() {
+        let (i, j, k) = (m % n[0], (m / sx) % n[1], m / sy);
+        let value = if near[m].is_some_and(|v| v < 0.0) { -reach } else { reach };
+        let mut visit = |q: usize| {
+            if near[q].is_none() {
+                near[q] = Some(value);
+                queue.push_back(q);
+            }
+        };
+        if i > 0 {
+            visit(m - 1);
+        }
+        if i + 1 < n[0] {
+            visit(m + 1);
+        }
+        if j > 0 {
+            visit(m - sx);
+        }
+        if j + 1 < n[1] {
+            visit(m + sx);
+        }
+        if k > 0 {
+            visit(m - sy);
+        }
+        if k + 1 < n[2] {
+            visit(m + sy);
+        }
+    }
+    near.into_iter().map(|v| v.unwrap_or(reach)).collect()
 }
 
 /// Number of connected components (by shared vertices) of a triangle list over `n` points.

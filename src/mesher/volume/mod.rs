@@ -119,6 +119,14 @@ impl Ctx<'_> {
         let g = if self.domain.is_distance() { 1.0 } else { self.domain.gradient(p).length() };
         Ok(crate::mesher::truss::domain::approx_distance(d, g, self.domain.is_distance()))
     }
+    /// [`Ctx::approx_dist`] where d = 0 may pass within `r` of `p`; `None` where the geometry
+    /// knows it is farther (see `Implicit3::value_near`; only signed distances can say so).
+    fn approx_dist_near(&self, p: DVec3, r: f64) -> Result<Option<f64>, Error> {
+        if !self.domain.is_distance() {
+            return self.approx_dist(p).map(Some);
+        }
+        self.domain.value_near(p, r).map(|d| crate::mesher::truss::domain::checked_d(d, p)).transpose()
+    }
     /// SplitMix64 on the options' seed: the only randomness, so runs repeat bit for bit.
     fn next_f64(&mut self) -> f64 {
         self.rng = self.rng.wrapping_add(0x9E37_79B9_7F4A_7C15);

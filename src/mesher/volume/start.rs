@@ -147,16 +147,41 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Erro
     let gap = SURFACE_GAP * a;
     let mut grid: HashMap<[i64; 3], SmallVec<[DVec3; 4]>> = HashMap::new();
     let cell = |p: DVec3| (p / gap).floor().as_i64vec3().to_array();
+    // The side of d = 0 each lattice point is on (0: not yet known), for the points far from it.
+    let (nx, ny) = (n.x as usize, n.y as usize);
+    let mut side = vec![0i8; 2 * nx * ny * n.z as usize];
+    let slot = |i: u32, j: u32, k: u32, o: usize| 2 * (i as usize + nx * (j as usize + ny * k as usize)) + o;
     for k in 0..n.z {
         for j in 0..n.y {
             for i in 0..n.x {
-                for off in [0.0, 0.5] {
+                for (o, off) in [0.0, 0.5].into_iter().enumerate() {
                     let p = lo + (DVec3::new(i as f64, j as f64, k as f64) + off) * a;
                     if p.cmpgt(hi).any() {
                         continue;
                     }
-                    let d = ctx.approx_dist(p)?;
                     let h = if uniform { 1.0 } else { ctx.h(p)? };
+                    // Exact within `r`; farther, only the side matters (both tests below are
+                    // decided by it), and it is the side of a lattice neighbour met before
+                    // (at most one side a away, so the segment to it crosses nothing).
+                    let r = 1.5 * a * h.max(1.0);
+                    let before = if o == 1 {
+                        slot(i, j, k, 0)
+                    } else if i > 0 {
+                        slot(i - 1, j, k, 0)
+                    } else if j > 0 {
+                        slot(i, j - 1, k, 0)
+                    } else if k > 0 {
+                        slot(i, j, k - 1, 0)
+                    } else {
+                        usize::MAX
+                    };
+                    let known = side.get(before).copied().unwrap_or(0);
+                    let d = match ctx.approx_dist_near(p, r)? {
+                        Some(d) => d,
+                        None if known != 0 => f64::from(known) * r,
+                        None => ctx.approx_dist(p)?,
+                    };
+                    side[slot(i, j, k, o)] = if d < 0.0 { -1 } else { 1 };
                     if d < -INTERIOR_DEPTH * a * h {
                         // Seed 2.3: rejection with probability 1 - (h_min / h)^3.
                         if !uniform && ctx.next_f64() > 1.0 / (h * h * h) {
@@ -248,7 +273,11 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Erro
         .with_min_len(CHUNK)
         .map(|t| {
             let c = (points[t[0]] + points[t[1]] + points[t[2]] + points[t[3]]) / 4.0;
-            ctx.approx_dist(c).map(|d| d < -geps)
+            // The start points are all inside or on d = 0: a centroid with no surface point
+            // nearer than its corners (nor within geps) is inside by more than geps, known
+            // without the full (far, slow) distance query.
+            let reach = t.iter().map(|&v| points[v].distance(c)).fold(geps, f64::max) * 1.01;
+            ctx.approx_dist_near(c, reach).map(|d| d.is_none_or(|d| d < -geps))
         })
         .collect::<Result<_, Error>>()?;
     let mut tets: Vec<[usize; 4]> = tets.into_iter().zip(keep).filter(|x| x.1).map(|x| x.0).collect();
