@@ -226,6 +226,11 @@ impl Implicit3 for TriSurface {
     fn is_distance(&self) -> bool {
         true
     }
+    /// Declared: the meshers need not sample |grad d| over the box to decide (deep samples
+    /// are the slowest queries of a large input).
+    fn declared_distance(&self) -> Option<bool> {
+        Some(true)
+    }
     fn creases(&self) -> Option<&dyn super::Creases> {
         self.crease_data().map(|_| self as &dyn super::Creases)
     }

@@ -59,12 +59,23 @@ pub(crate) fn survey(domain: &dyn Implicit3, opts: &Options3) -> Result<Survey, 
     let mut inside = 0usize;
     let mut density = 0.0;
     let mut h_floor = f64::INFINITY;
+    // Only the side of d = 0 matters here away from it: a sample with nothing within 1.5
+    // spacings takes the side of the sample met before it (see `Implicit3::value_near`).
+    let reach = 1.5 * step.max_element();
+    let mut side = vec![0i8; nx * ny * nz];
     for k in 0..nz {
         for j in 0..ny {
             for i in 0..nx {
                 let p = lo + DVec3::new(i as f64, j as f64, k as f64) * step;
-                let d = eval_d(domain, p)?;
+                let at = i + nx * (j + ny * k);
+                let before = earlier([i, j, k]).map(|[a, b, c]| side[a + nx * (b + ny * c)]).unwrap_or(0);
                 let on_box = i == 0 || j == 0 || k == 0 || i == nx - 1 || j == ny - 1 || k == nz - 1;
+                let d = match domain.value_near(p, reach) {
+                    Some(d) => checked_d(d, p)?,
+                    None if before != 0 && !on_box => f64::from(before) * reach,
+                    None => eval_d(domain, p)?,
+                };
+                side[at] = if d < 0.0 { -1 } else { 1 };
                 if d < 0.0 && on_box {
                     check_box_boundary(d, domain.gradient(p).length(), p, h0)?;
                 }
@@ -118,6 +129,20 @@ pub(crate) fn survey(domain: &dyn Implicit3, opts: &Options3) -> Result<Survey, 
     Ok(Survey { estimated_tets, h_floor })
 }
 
+/// The grid point met just before `[i, j, k]` in a sweep with i fastest (one step back along
+/// the first axis that allows it), or `None` for the first point.
+fn earlier([i, j, k]: [usize; 3]) -> Option<[usize; 3]> {
+    if i > 0 {
+        Some([i - 1, j, k])
+    } else if j > 0 {
+        Some([i, j - 1, k])
+    } else if k > 0 {
+        Some([i, j, k - 1])
+    } else {
+        None
+    }
+}
+
 /// The SplitMix64 output for state `z` (Steele, Lea and Flood 2014), as a number in [0, 1).
 pub(super) fn splitmix_unit(z: u64) -> f64 {
     let mut z = z;
@@ -166,14 +191,9 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Erro
                     let r = 1.5 * a * h.max(1.0);
                     let before = if o == 1 {
                         slot(i, j, k, 0)
-                    } else if i > 0 {
-                        slot(i - 1, j, k, 0)
-                    } else if j > 0 {
-                        slot(i, j - 1, k, 0)
-                    } else if k > 0 {
-                        slot(i, j, k - 1, 0)
                     } else {
-                        usize::MAX
+                        earlier([i, j, k].map(|x| x as usize))
+                            .map_or(usize::MAX, |[a, b, c]| slot(a as u32, b as u32, c as u32, 0))
                     };
                     let known = side.get(before).copied().unwrap_or(0);
                     let d = match ctx.approx_dist_near(p, r)? {
