@@ -124,7 +124,8 @@ fn bench(c: &mut Criterion) {
     for (n, p, t) in built {
         let s = TriSurface::new(p.clone(), t.clone()).expect("icosphere");
         let opts = s.surface_options(0.1);
-        remesh.bench_function(BenchmarkId::new("mesh_surface", n), |b| b.iter(|| mesh_surface(&s, &opts).expect("mesh")));
+        remesh
+            .bench_function(BenchmarkId::new("mesh_surface", n), |b| b.iter(|| mesh_surface(&s, &opts).expect("mesh")));
     }
     remesh.finish();
 }
