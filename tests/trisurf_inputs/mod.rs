@@ -6,6 +6,7 @@
 
 use glam::DVec3;
 use std::collections::HashMap;
+use trussmesh::geometry::trisurf::DEFAULT_FEATURE_ANGLE;
 use trussmesh::geometry::{difference, Circle, Rectangle, TriSurface};
 use trussmesh::io::MeshData;
 use trussmesh::testing::{Rng, SEED};
@@ -149,4 +150,35 @@ pub fn turned_box(n: usize, half: DVec3, rot: glam::DMat3, centre: DVec3) -> Tri
         }
     }
     TriSurface::new(pts, tris).expect("turned box")
+}
+
+/// The seed of the turned-box family.
+pub const BOX_SEED: u64 = 0x5a4b;
+
+/// The next box of a random family: turned about a random axis by 0.2 to 1.4 radians, half
+/// sides 0.6 to 1.0.
+pub fn random_turned_box(rng: &mut Rng) -> TriSurface {
+    let axis = DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)).normalize();
+    let rot = glam::DMat3::from_axis_angle(axis, rng.range(0.2, 1.4));
+    let half = DVec3::new(rng.range(0.6, 1.0), rng.range(0.6, 1.0), rng.range(0.6, 1.0));
+    turned_box(5, half, rot, DVec3::ZERO)
+}
+
+/// The largest distance from points 0.1 h0 apart on the input's feature curves to the nearest
+/// feature edge of `out` (at the same feature angle), over h0, and the number of corners of `out`.
+pub fn feature_gap(input: &TriSurface, out: &TriSurface, h0: f64) -> (f64, usize) {
+    let fin = input.features(DEFAULT_FEATURE_ANGLE);
+    let fout = out.features(DEFAULT_FEATURE_ANGLE);
+    let bp = out.points();
+    let segs: Vec<(DVec3, DVec3)> = fout.edges.iter().map(|&[a, b]| (bp[a], bp[b])).collect();
+    let seg_dist = |q: DVec3, a: DVec3, b: DVec3| {
+        let t = ((q - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+        q.distance(a + (b - a) * t)
+    };
+    let worst = fin
+        .sample(input, &|_| 0.1 * h0)
+        .iter()
+        .map(|&q| segs.iter().map(|&(a, b)| seg_dist(q, a, b)).fold(f64::INFINITY, f64::min))
+        .fold(0.0, f64::max);
+    (worst / h0, fout.corners.len())
 }

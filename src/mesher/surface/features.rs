@@ -34,6 +34,9 @@ const GIVEN_SAG: f64 = 0.1;
 const ON_CURVE: f64 = 1e-9;
 /// Vertices tried, nearest first, for each given corner.
 const CORNER_TRIES: usize = 12;
+/// Faces of another patch beyond which a labelled region is taken to have leaked across a
+/// curve (strays near a corner are a few).
+const LEAK_FACES: usize = 4;
 /// Steps of the projection onto a feature curve.
 const CURVE_STEPS: usize = 8;
 
@@ -680,8 +683,18 @@ fn label_given(m: &mut TriMesh<DVec3>, c: &dyn Creases) {
         }
         // Most votes; the lower patch on a tie (deterministic).
         let best = votes.iter().max_by(|x, y| x.1.cmp(&y.1).then(y.0.cmp(&x.0))).map_or(0, |x| x.0);
+        // A region with many faces of another patch has leaked through a gap in the cut
+        // curves: its faces take their own patches, and the faces at the gap meet along
+        // edges that the pipeline then holds on the curve between them.
+        let leaked = votes.iter().any(|&(l, n)| l != best && n > LEAK_FACES.max(members.len() / 20));
         for f in members {
-            m.set_label(f, best.min(65_535));
+            let l = if leaked {
+                let centroid = m.face_vertices(f).map(|v| m.pos(v)).iter().sum::<DVec3>() / 3.0;
+                c.patch(centroid).unwrap_or(best)
+            } else {
+                best
+            };
+            m.set_label(f, l.min(65_535));
         }
     }
 }

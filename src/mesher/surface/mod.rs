@@ -149,64 +149,107 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
         // cleanly (a marching start has bands of nodes projected onto a convex edge, some of
         // them coincident), and the smooth mesh is the fallback.
         let mut invalid = None;
-        let smooth = match mesh_surface_held(phi, opts, size, false, None, Some(&mut invalid)) {
-            Ok(Ok(out)) => out,
+        let smooth = match smooth_run(phi, opts, size, Some(&mut invalid)) {
+            Ok(out) => out,
             // A smooth mesh that fails the final check (folded or crossing itself where it
             // rounds a corner) is still a start to cut the features into: holding them often
             // mends it. Its error stands if that fails too.
-            Ok(Err(e)) | Err(e) => {
+            Err(e) => {
                 trace(&e);
-                return match invalid.map(|start| mesh_surface_held(phi, opts, size, true, Some(start), None)) {
+                return match invalid.map(|start| mesh_surface_held(phi, opts, size, true, Start::Given(start), None)) {
                     Some(Ok(Ok(out))) => Ok(out),
                     _ => Err(e),
                 };
             }
         };
         let start = smooth.mesh.clone();
-        return Ok(match mesh_surface_held(phi, opts, size, true, Some(start), None) {
+        return Ok(match mesh_surface_held(phi, opts, size, true, Start::Given(start), None) {
             Ok(Ok(mut out)) => {
                 out.report.seconds += smooth.report.seconds;
                 out
             }
             Ok(Err(e)) | Err(e) => {
                 trace(&e);
-                smooth
+                rounded(smooth, &e)
             }
         });
     }
-    match mesh_surface_held(phi, opts, size, true, None, None)? {
+    match mesh_surface_held(phi, opts, size, true, Start::Marched { top: start::MAX_LEVELS }, None)? {
         Ok(out) => Ok(out),
         Err(e) => {
             trace(&e);
-            mesh_surface_held(phi, opts, size, false, None, None)?
+            Ok(rounded(smooth_run(phi, opts, size, None)?, &e))
         }
     }
 }
 
-/// [`mesh_surface`], holding sharp features when `sharp`, from the start mesh `given` when
-/// there is one (its features cut into it; else the marching start). The inner error is a
+/// A mesh made without the sharp features that holding failed on, its report saying so.
+fn rounded(mut out: SurfaceOutput, e: &Error) -> SurfaceOutput {
+    out.report.notes.push(format!("the surface has sharp edges, but holding them failed ({e}): this mesh rounds them"));
+    out
+}
+
+/// Where a run starts: a given mesh (its features cut into it) or the marching start made at
+/// no coarser level than `top`.
+enum Start {
+    Given(TriMesh<DVec3>),
+    Marched { top: u32 },
+}
+
+/// A run without sharp features from the marching start, made again from the next finer start
+/// while the finished surface fails the final check: a coarse grid can march a pleat near a
+/// sharp corner, nodes that cannot be projected without folding a triangle, which no later
+/// stage unfolds (a turned box started at 4 h crossed itself there). The last invalid surface
+/// is left in `invalid` when given.
+fn smooth_run(
+    phi: &dyn Implicit3,
+    opts: &SurfaceOptions,
+    size: &SizeField,
+    invalid: Option<&mut Option<TriMesh<DVec3>>>,
+) -> Result<SurfaceOutput, Error> {
+    let mut top = start::MAX_LEVELS;
+    loop {
+        let mut failed = None;
+        match mesh_surface_held(phi, opts, size, false, Start::Marched { top }, Some(&mut failed)) {
+            Ok(Ok(out)) => return Ok(out),
+            Ok(Err(e)) | Err(e) => match failed {
+                // The start was coarser than the reference level: a finer one next.
+                Some((_, level)) if level > 0 && level <= top => top = level - 1,
+                Some((m, _)) => {
+                    if let Some(slot) = invalid {
+                        *slot = Some(m);
+                    }
+                    return Err(e);
+                }
+                None => return Err(e),
+            },
+        }
+    }
+}
+
+/// [`mesh_surface`], holding sharp features when `sharp`, from `from`. The inner error is a
 /// finished surface that fails the final check with features held. A smooth surface that fails
-/// it is left in `invalid` when given.
+/// it is left in `invalid` when given, with the level its start was made at.
 fn mesh_surface_held(
     phi: &dyn Implicit3,
     opts: &SurfaceOptions,
     size: &SizeField,
     sharp: bool,
-    given: Option<TriMesh<DVec3>>,
-    invalid: Option<&mut Option<TriMesh<DVec3>>>,
+    from: Start,
+    invalid: Option<&mut Option<(TriMesh<DVec3>, u32)>>,
 ) -> Result<Result<SurfaceOutput, Error>, Error> {
     let start = std::time::Instant::now();
     let size = size.clone();
     let hmin = size.min();
     let tol = PROJECT_TOL * hmin;
-    let (mut m, levels, held) = match given {
-        Some(mut g) => {
+    let (mut m, levels, held) = match from {
+        Start::Given(mut g) => {
             if !features::imprint(&mut g, phi, hmin, tol)? {
                 return Ok(Err(Error::internal("the given features could not be cut into the start")));
             }
             (g, 0, true)
         }
-        None => start::start_mesh(phi, opts.bbox, hmin, tol, sharp)?,
+        Start::Marched { top } => start::start_mesh(phi, opts.bbox, hmin, tol, sharp, top)?,
     };
     let start_vertices = m.num_vertices();
     let mut report: Report<SurfaceQuality> = Report::default();
@@ -312,7 +355,7 @@ fn mesh_surface_held(
         }
         let e = too_thin_or(phi, &m, hmin, tol, e);
         if let Some(slot) = invalid {
-            *slot = Some(m);
+            *slot = Some((m, levels));
         }
         return Err(e);
     }

@@ -28,7 +28,7 @@ pub const MAX_GRID_NODES: u64 = 64_000_000;
 const T_CLAMP: f64 = 0.02;
 
 /// Coarsest start level: the start mesh is made at up to 2^MAX_LEVELS times the target size.
-const MAX_LEVELS: u32 = 3;
+pub(super) const MAX_LEVELS: u32 = 3;
 /// The largest marching grid for the reference topology (about 250^3 nodes).
 const REFERENCE_GRID_NODES: u64 = 16_000_000;
 /// Largest turn of the normal along one edge of the coarsest start mesh, radians.
@@ -241,12 +241,14 @@ pub fn components(n: usize, tris: &[[usize; 3]]) -> usize {
 /// The start mesh for the smallest size `hmin`, its nodes projected onto phi = 0 to `tol`, its
 /// level k (it was made at 2^k hmin, and the pipeline subdivides it k times), and whether it
 /// holds sharp features (looked for when `sharp`; a mesh holding them is not subdivided).
+/// Levels above `top` are not tried.
 pub(super) fn start_mesh(
     phi: &dyn Implicit3,
     bbox: [DVec3; 2],
     hmin: f64,
     tol: f64,
     sharp: bool,
+    top: u32,
 ) -> Result<(TriMesh<DVec3>, u32, bool), Error> {
     // The reference marching fixes the topology; the start mesh is made at the coarsest level
     // 2^k h with the same Euler characteristic and component count, then subdivided k times,
@@ -286,7 +288,7 @@ pub(super) fn start_mesh(
     let thin = geom::thinnest(phi, &on, hmin, COARSE_ACROSS * coarsest, tol).map_or(f64::INFINITY, |t| t.across);
     let mut levels = reference;
     let mut marched = fine;
-    for k in (reference + 1..=MAX_LEVELS).rev() {
+    for k in (reference + 1..=MAX_LEVELS.min(top)).rev() {
         let hk = hmin * (1u32 << k) as f64;
         if hk * kmax > MAX_TURN || COARSE_ACROSS * hk > thin {
             continue;
