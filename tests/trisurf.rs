@@ -372,3 +372,46 @@ fn every_format_reads() {
     assert!(e.to_string().contains("empty"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The box [-1, 1]^3 with its edge x = y = 1 cut by a chamfer of width `c` (along x and y),
+/// each face a fan of triangles.
+fn chamfered_box(c: f64) -> TriSurface {
+    let faces: Vec<Vec<[f64; 3]>> = vec![
+        vec![[1.0, -1.0, -1.0], [1.0, 1.0 - c, -1.0], [1.0, 1.0 - c, 1.0], [1.0, -1.0, 1.0]],
+        vec![[-1.0, 1.0, -1.0], [-1.0, 1.0, 1.0], [1.0 - c, 1.0, 1.0], [1.0 - c, 1.0, -1.0]],
+        vec![[1.0, 1.0 - c, -1.0], [1.0 - c, 1.0, -1.0], [1.0 - c, 1.0, 1.0], [1.0, 1.0 - c, 1.0]],
+        vec![[-1.0, -1.0, 1.0], [1.0, -1.0, 1.0], [1.0, 1.0 - c, 1.0], [1.0 - c, 1.0, 1.0], [-1.0, 1.0, 1.0]],
+        vec![[-1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [1.0 - c, 1.0, -1.0], [1.0, 1.0 - c, -1.0], [1.0, -1.0, -1.0]],
+        vec![[-1.0, -1.0, -1.0], [-1.0, -1.0, 1.0], [-1.0, 1.0, 1.0], [-1.0, 1.0, -1.0]],
+        vec![[-1.0, -1.0, -1.0], [1.0, -1.0, -1.0], [1.0, -1.0, 1.0], [-1.0, -1.0, 1.0]],
+    ];
+    let mut pts: Vec<[f64; 3]> = Vec::new();
+    let mut tris = Vec::new();
+    for f in faces {
+        let base = pts.len();
+        pts.extend(&f);
+        for k in 1..f.len() - 1 {
+            tris.push([base, base + k, base + k + 1]);
+        }
+    }
+    TriSurface::new(pts, tris).expect("chamfered box")
+}
+
+/// A face narrower than a quarter of the mesh size joins a neighbour (its border with it is no
+/// longer a curve to hold, and the corners at its ends are gone); at a fine enough size it stays.
+#[test]
+fn narrow_faces_merge_at_the_mesh_size() {
+    let chamfer = DVec3::new(1.0 - 0.005, 1.0 - 0.005, 0.0);
+    let (xface, yface) = (DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0));
+    for (h, merged) in [(None, false), (Some(0.001), false), (Some(0.1), true), (Some(1.0), true)] {
+        let s = chamfered_box(0.01).with_feature_size(h);
+        let c = s.creases().expect("the box has sharp edges");
+        let [pc, px, py] = [chamfer, xface, yface].map(|p| c.patch(p).expect("a patch"));
+        println!("feature size {h:?}: chamfer patch {pc}, x face {px}, y face {py}, {} corners", c.corners().len());
+        assert_ne!(px, py);
+        assert_eq!(pc == px || pc == py, merged);
+        assert_eq!(c.corners().len(), if merged { 8 } else { 10 });
+        // The curve between the two faces exists only once the chamfer is part of one of them.
+        assert_eq!(c.onto(px, py, DVec3::new(1.0, 1.0, 0.0)).is_some(), merged);
+    }
+}

@@ -191,7 +191,8 @@ pub fn run_surface(args: &SurfaceArgs, file: &Path, h0: f64) -> Result<(), Failu
     output::check_all(&args.output)?;
     let name = file.display().to_string();
     let angle = feature_angle(args.feature_angle, !args.no_sharp)?;
-    let surf = read(&name)?.with_feature_angle(angle);
+    // Input faces too narrow to hold at the smallest size are merged into a neighbour.
+    let surf = read(&name)?.with_feature_angle(angle).with_feature_size(Some(h0));
     let triangles = surf.area() / (3f64.sqrt() / 4.0 * h0 * h0);
     check_budget(args.max_memory.as_deref(), &surf, "the surface mesh", triangles, budget::BYTES_PER_SURFACE_TRIANGLE)?;
     let mut opts = surf.surface_options(h0);

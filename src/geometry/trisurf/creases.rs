@@ -26,9 +26,10 @@ pub struct CreaseData {
 }
 
 impl CreaseData {
-    /// The patches of `s` at `angle_deg` degrees; `None` when the surface has no feature edge
-    /// between two different patches, or more patches than the mesher can label.
-    pub(super) fn new(s: &TriSurface, angle_deg: f64) -> Option<CreaseData> {
+    /// The patches of `s` at `angle_deg` degrees, those narrower than `narrow` merged into a
+    /// neighbour (see [`merge_narrow`]); `None` when the surface has no feature edge between
+    /// two different patches, or more patches than the mesher can label.
+    pub(super) fn new(s: &TriSurface, angle_deg: f64, narrow: f64) -> Option<CreaseData> {
         let cos_max = angle_deg.to_radians().cos();
         let n = s.tris.len();
         let sharp = |t: usize, w: usize| s.normals.face(t).dot(s.normals.face(w)) < cos_max;
@@ -40,6 +41,9 @@ impl CreaseData {
                     sets.join(t, w);
                 }
             }
+        }
+        if narrow > 0.0 {
+            merge_narrow(s, &mut sets, narrow);
         }
         // Labels in the order of each patch's first triangle: deterministic.
         let mut label: HashMap<usize, u32> = HashMap::new();
@@ -74,6 +78,74 @@ impl CreaseData {
         }
         let corners: Vec<DVec3> = (0..s.points.len()).filter(|&v| around[v].len() >= 3).map(|v| s.points[v]).collect();
         Some(CreaseData { patch, corners, curves })
+    }
+}
+
+/// A patch narrower than this many mesh sizes (twice its area over its perimeter) is merged
+/// into a neighbour: its two sides would be a fraction of an edge apart.
+pub(super) const NARROW_FACE: f64 = 0.25;
+
+/// Merges every patch of `sets` (triangles joined across their smooth edges) whose width, twice
+/// its area over its perimeter, is below `narrow` into the neighbouring patch it shares the
+/// longest border with (the lower root on a tie), narrowest first; a merged patch that is still
+/// narrow is looked at again. Ordered maps throughout: the same merges on every run.
+fn merge_narrow(s: &TriSurface, sets: &mut DisjointSets, narrow: f64) {
+    use std::collections::BTreeMap;
+    let n = s.tris.len();
+    let mut area: BTreeMap<usize, f64> = BTreeMap::new();
+    // Border length between each two neighbouring patches, both ways.
+    let mut adj: BTreeMap<usize, BTreeMap<usize, f64>> = BTreeMap::new();
+    for t in 0..n {
+        let [a, b, c] = s.tris[t].map(|v| s.points[v]);
+        *area.entry(sets.root(t)).or_default() += 0.5 * (b - a).cross(c - a).length();
+        for k in 0..3 {
+            let w = s.neighbors[t][k];
+            let (rt, rw) = (sets.root(t), sets.root(w));
+            if w > t && rt != rw {
+                let len = s.points[s.tris[t][k]].distance(s.points[s.tris[t][(k + 1) % 3]]);
+                *adj.entry(rt).or_default().entry(rw).or_default() += len;
+                *adj.entry(rw).or_default().entry(rt).or_default() += len;
+            }
+        }
+    }
+    let width = |r: usize, area: &BTreeMap<usize, f64>, adj: &BTreeMap<usize, BTreeMap<usize, f64>>| {
+        let perimeter: f64 = adj.get(&r).map_or(0.0, |m| m.values().sum());
+        if perimeter > 0.0 {
+            2.0 * area[&r] / perimeter
+        } else {
+            f64::INFINITY
+        }
+    };
+    let mut todo: Vec<(f64, usize)> =
+        adj.keys().map(|&r| (width(r, &area, &adj), r)).filter(|x| x.0 < narrow).collect();
+    // Narrowest last (popped first).
+    todo.sort_by(|a, b| b.0.total_cmp(&a.0).then(b.1.cmp(&a.1)));
+    while let Some((_, thin)) = todo.pop() {
+        if sets.root(thin) != thin || width(thin, &area, &adj) >= narrow {
+            continue;
+        }
+        let Some(into) = adj[&thin].iter().max_by(|x, y| x.1.total_cmp(y.1).then(y.0.cmp(x.0))).map(|x| *x.0) else {
+            continue;
+        };
+        sets.join(thin, into);
+        let root = sets.root(thin);
+        let gone = if root == thin { into } else { thin };
+        // The gone patch's area and borders move to the root.
+        let a = area.remove(&gone).unwrap_or(0.0);
+        *area.entry(root).or_default() += a;
+        let borders = adj.remove(&gone).unwrap_or_default();
+        for (x, l) in borders {
+            let mx = adj.get_mut(&x).expect("borders are kept both ways");
+            mx.remove(&gone);
+            if x != root {
+                *mx.entry(root).or_default() += l;
+                *adj.get_mut(&root).expect("a patch with borders").entry(x).or_default() += l;
+            }
+        }
+        let w = width(root, &area, &adj);
+        if w < narrow {
+            todo.push((w, root));
+        }
     }
 }
 

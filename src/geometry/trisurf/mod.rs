@@ -52,6 +52,10 @@ pub struct TriSurface {
     /// The feature angle at which the surface mesher holds the input's sharp edges (None: it
     /// holds none).
     feature_angle: Option<f64>,
+    /// Faces of the input narrower than NARROW_FACE times this (twice their area over their
+    /// perimeter) are merged into a neighbour before the surface mesher holds the curves
+    /// (None: none is merged).
+    feature_size: Option<f64>,
     /// The patches and curves at `feature_angle`, made when first asked for.
     creases: std::sync::OnceLock<Option<creases::CreaseData>>,
     /// The curvature at each vertex at `feature_angle`, made when first asked for.
@@ -84,6 +88,7 @@ impl TriSurface {
             bbox: [lo, hi],
             tiny,
             feature_angle: Some(DEFAULT_FEATURE_ANGLE),
+            feature_size: None,
             creases: std::sync::OnceLock::new(),
             curvature: std::sync::OnceLock::new(),
         })
@@ -98,9 +103,26 @@ impl TriSurface {
         self
     }
 
+    /// The surface with the mesh size `h` its features are held at: a face of the input (a
+    /// patch between sharp edges) narrower than a quarter of `h`, measured as twice its area
+    /// over its perimeter, cannot be held at that size (its two sides would be a fraction of
+    /// an edge apart), and is merged into the neighbour it shares the longest border with: a
+    /// chamfer one triangle wide along a rim becomes part of a face, rounded. The command line
+    /// sets the smallest size; None (the default) merges nothing.
+    pub fn with_feature_size(mut self, h: Option<f64>) -> TriSurface {
+        self.feature_size = h;
+        self.creases = std::sync::OnceLock::new();
+        self
+    }
+
     /// The patches and curves the surface mesher holds, if any.
     fn crease_data(&self) -> Option<&creases::CreaseData> {
-        self.creases.get_or_init(|| self.feature_angle.and_then(|a| creases::CreaseData::new(self, a))).as_ref()
+        self.creases
+            .get_or_init(|| {
+                let narrow = self.feature_size.map_or(0.0, |h| creases::NARROW_FACE * h);
+                self.feature_angle.and_then(|a| creases::CreaseData::new(self, a, narrow))
+            })
+            .as_ref()
     }
 
     /// Reads and checks a surface file (.stl ASCII or binary, .obj, .ply ASCII or binary,
