@@ -219,7 +219,7 @@ pub fn equalize_lengths(
             if let Some(step) = held_step(m, v, size, scale) {
                 let h = size.at(p);
                 if let Some((target, g)) = features::held_target(m, phi, v, step, h, tol)? {
-                    if move_if_no_fold_g(m, v, target, g) {
+                    if move_keeping_quality(m, v, target, g) {
                         largest = largest.max(target.distance(p) / h);
                     }
                 }
@@ -250,11 +250,35 @@ pub fn equalize_lengths(
             step *= 0.2 * h / step.length();
         }
         let (target, g) = project_grad(phi, p + step, tol)?;
-        if move_if_no_fold_g(m, v, target, g) {
+        if move_keeping_quality(m, v, target, g) {
             largest = largest.max(target.distance(p) / h);
         }
     }
     Ok(largest)
+}
+
+/// Below this quality an equalising move may not take a triangle, nor further down one already
+/// there.
+const EQUALIZE_Q: f64 = 0.5;
+
+/// The worst triangle quality around `v`.
+fn star_min_q(m: &TriMesh<DVec3>, v: VertexId) -> f64 {
+    m.outgoing(v).into_iter().filter_map(|h| m.face_of(h)).map(|f| m.face_quality(f)).fold(1.0, f64::min)
+}
+
+/// [`move_if_no_fold_g`], undone when the worst triangle around `v` ends below
+/// min(EQUALIZE_Q, its quality before): evening out lengths must not make a triangle poor (on a
+/// noisy input the projection of a small tangential step can land a node next to another).
+fn move_keeping_quality(m: &mut TriMesh<DVec3>, v: VertexId, p: DVec3, g: DVec3) -> bool {
+    let (from, before) = (m.pos(v), star_min_q(m, v));
+    if !move_if_no_fold_g(m, v, p, g) {
+        return false;
+    }
+    if star_min_q(m, v) < before.min(EQUALIZE_Q) {
+        m.set_pos_unchecked(v, from);
+        return false;
+    }
+    true
 }
 
 /// The Gauss-Newton step of [`equalize_lengths`] for a vertex on a feature curve: along the
