@@ -319,7 +319,14 @@ fn cube_keeps_edges_and_corners() {
 
 /// Boxes not aligned with the axes, circular rims and concave edges.
 #[test]
-#[ignore = "not reached: holding the features found from phi fails on the rotated box (edges in no grid plane) at h0 0.2 and 0.1 and on the L prism (union of two boxes, one concave edge) at both sizes: the result is the smooth mesh, 0 of 8 (12) corners, and its report warns that it rounds them; the cylinder passes at h0 0.2 (min angle 30.9, rims to 2.3e-12, cover 0.035 h0) but at 0.1 its held mesh crosses itself and the smooth fallback keeps 9 inward faces and a flat triangle (warned: poor triangles, inward faces, rounded features)"]
 fn sharp_features_are_kept() {
-    check(vec![rotated_box(), cylinder(), l_prism()], &[0.2, 0.1]);
+    check(vec![rotated_box()], &[0.2]);
+    check(vec![cylinder(), l_prism()], &[0.2, 0.1]);
+}
+
+/// The rotated box at the finer size.
+#[test]
+#[ignore = "not reached: the rotated box (edges in no grid plane) at h0 0.1: holding the features found from phi crosses the surface over itself both from the marching start and from the smooth mesh; the result is the smooth mesh (0 of 8 corners), and its report warns that it rounds them"]
+fn sharp_features_of_the_rotated_box_at_h0_01() {
+    check(vec![rotated_box()], &[0.1]);
 }

@@ -178,7 +178,19 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
         Ok(out) => Ok(out),
         Err(e) => {
             trace(&e);
-            Ok(rounded(smooth_run(phi, opts, size, None)?, &e))
+            // The features found from phi cut into the smooth mesh instead, whose even
+            // triangles cut more cleanly than the marching start's (as for given features).
+            let smooth = smooth_run(phi, opts, size, None)?;
+            match mesh_surface_held(phi, opts, size, true, Start::Given(smooth.mesh.clone()), None) {
+                Ok(Ok(mut out)) => {
+                    out.report.seconds += smooth.report.seconds;
+                    Ok(out)
+                }
+                Ok(Err(e2)) | Err(e2) => {
+                    trace(&e2);
+                    Ok(rounded(smooth, &e))
+                }
+            }
         }
     }
 }
