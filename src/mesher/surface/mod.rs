@@ -120,11 +120,12 @@ const PROJECT_TOL: f64 = 1e-9;
 /// Meshes the closed surface phi = 0 inside `opts.bbox` (phi < 0 inside, so normals point
 /// along grad phi).
 ///
-/// Sharp edges and corners of phi = 0 are found and held (`features.rs`); should holding them
-/// ever leave a surface that fails the final check or has a triangle below quality HELD_MIN_Q,
-/// the surface is meshed again without them. A geometry that gives its features exactly
-/// ([`Implicit3::creases`]: a triangulated surface) is meshed smooth first and its features cut
-/// into that mesh; the smooth mesh is the result when holding them fails.
+/// Sharp edges and corners of phi = 0 are found and held (`features.rs`), cut into the marching
+/// start; should holding them leave a surface that fails the final check or has a triangle
+/// below quality HELD_MIN_Q, they are cut into the smooth mesh (meshed without them) and held
+/// from there, and failing that too the smooth mesh is the result, its report saying so. A
+/// geometry that gives its features exactly ([`Implicit3::creases`]: a triangulated surface)
+/// is meshed smooth first and its features cut into that mesh, with the same fallback.
 pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
     // The size field once for every run below (on a grid from --size auto it may take longer
     // than the meshing); its time counts in the report's.
