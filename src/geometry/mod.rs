@@ -135,6 +135,13 @@ pub trait Implicit3: Sync + Send {
     fn creases(&self) -> Option<&dyn Creases> {
         None
     }
+    /// True when `creases` is the whole truth: the geometry gives its sharp features itself
+    /// (a triangulated surface, whose `creases` is None when it has none or holding them is
+    /// turned off), so the surface mesher never looks for them in the function. The default is
+    /// false.
+    fn creases_given(&self) -> bool {
+        false
+    }
     /// The largest principal curvature (its magnitude) of the surface d = 0 near `p`, when the
     /// geometry knows it better than second differences of its values would: the distance to a
     /// triangulated surface is flat over each triangle and kinked at each edge. `None` (the

@@ -253,6 +253,9 @@ impl Implicit3 for TriSurface {
     fn declared_distance(&self) -> Option<bool> {
         Some(true)
     }
+    fn creases_given(&self) -> bool {
+        true
+    }
     fn creases(&self) -> Option<&dyn super::Creases> {
         self.crease_data().map(|_| self as &dyn super::Creases)
     }

@@ -175,6 +175,10 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
             }
         });
     }
+    if phi.creases_given() {
+        // No features to hold (none, or turned off): none are looked for in the function.
+        return smooth_run(phi, opts, size, None);
+    }
     match mesh_surface_held(phi, opts, size, true, Start::Marched { top: start::MAX_LEVELS }, None)? {
         Ok(out) => Ok(out),
         Err(e) => {
