@@ -672,10 +672,13 @@ fn label_given(m: &mut TriMesh<DVec3>, c: &dyn Creases) {
         regions.push(members);
     }
     for members in regions {
+        // The patch under each triangle's centroid, once.
+        let own: Vec<Option<u32>> = members
+            .iter()
+            .map(|&f| c.patch(m.face_vertices(f).map(|v| m.pos(v)).iter().sum::<DVec3>() / 3.0))
+            .collect();
         let mut votes: Vec<(u32, usize)> = Vec::new();
-        for &f in &members {
-            let centroid = m.face_vertices(f).map(|v| m.pos(v)).iter().sum::<DVec3>() / 3.0;
-            let l = c.patch(centroid).unwrap_or(0);
+        for l in own.iter().map(|l| l.unwrap_or(0)) {
             match votes.iter_mut().find(|x| x.0 == l) {
                 Some(x) => x.1 += 1,
                 None => votes.push((l, 1)),
@@ -687,13 +690,8 @@ fn label_given(m: &mut TriMesh<DVec3>, c: &dyn Creases) {
         // curves: its faces take their own patches, and the faces at the gap meet along
         // edges that the pipeline then holds on the curve between them.
         let leaked = votes.iter().any(|&(l, n)| l != best && n > LEAK_FACES.max(members.len() / 20));
-        for f in members {
-            let l = if leaked {
-                let centroid = m.face_vertices(f).map(|v| m.pos(v)).iter().sum::<DVec3>() / 3.0;
-                c.patch(centroid).unwrap_or(best)
-            } else {
-                best
-            };
+        for (&f, l) in members.iter().zip(own) {
+            let l = if leaked { l.unwrap_or(best) } else { best };
             m.set_label(f, l.min(65_535));
         }
     }

@@ -163,13 +163,9 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
                 };
             }
         };
-        let start = smooth.mesh.clone();
-        return Ok(match mesh_surface_held(phi, opts, size, true, Start::Given(start), None) {
-            Ok(Ok(mut out)) => {
-                out.report.seconds += smooth.report.seconds;
-                out
-            }
-            Ok(Err(e)) | Err(e) => {
+        return Ok(match held_from_smooth(phi, opts, size, smooth) {
+            Ok(out) => out,
+            Err((smooth, e)) => {
                 trace(&e);
                 rounded(smooth, &e)
             }
@@ -185,18 +181,31 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
             trace(&e);
             // The features found from phi cut into the smooth mesh instead, whose even
             // triangles cut more cleanly than the marching start's (as for given features).
-            let smooth = smooth_run(phi, opts, size, None)?;
-            match mesh_surface_held(phi, opts, size, true, Start::Given(smooth.mesh.clone()), None) {
-                Ok(Ok(mut out)) => {
-                    out.report.seconds += smooth.report.seconds;
-                    Ok(out)
-                }
-                Ok(Err(e2)) | Err(e2) => {
+            match held_from_smooth(phi, opts, size, smooth_run(phi, opts, size, None)?) {
+                Ok(out) => Ok(out),
+                Err((smooth, e2)) => {
                     trace(&e2);
                     Ok(rounded(smooth, &e))
                 }
             }
         }
+    }
+}
+
+/// The features cut into the smooth mesh `smooth` and held from there (its time counted in), or
+/// `smooth` back with the error when holding them fails.
+fn held_from_smooth(
+    phi: &dyn Implicit3,
+    opts: &SurfaceOptions,
+    size: &SizeField,
+    smooth: SurfaceOutput,
+) -> Result<SurfaceOutput, (SurfaceOutput, Error)> {
+    match mesh_surface_held(phi, opts, size, true, Start::Given(smooth.mesh.clone()), None) {
+        Ok(Ok(mut out)) => {
+            out.report.seconds += smooth.report.seconds;
+            Ok(out)
+        }
+        Ok(Err(e)) | Err(e) => Err((smooth, e)),
     }
 }
 
