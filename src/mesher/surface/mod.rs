@@ -165,7 +165,8 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
         };
         return Ok(match held_from_smooth(phi, opts, size, smooth) {
             Ok(out) => out,
-            Err((smooth, e)) => {
+            Err(failed) => {
+                let (smooth, e) = *failed;
                 trace(&e);
                 rounded(smooth, &e)
             }
@@ -183,7 +184,8 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
             // triangles cut more cleanly than the marching start's (as for given features).
             match held_from_smooth(phi, opts, size, smooth_run(phi, opts, size, None)?) {
                 Ok(out) => Ok(out),
-                Err((smooth, e2)) => {
+                Err(failed) => {
+                    let (smooth, e2) = *failed;
                     trace(&e2);
                     Ok(rounded(smooth, &e))
                 }
@@ -199,13 +201,13 @@ fn held_from_smooth(
     opts: &SurfaceOptions,
     size: &SizeField,
     smooth: SurfaceOutput,
-) -> Result<SurfaceOutput, (SurfaceOutput, Error)> {
+) -> Result<SurfaceOutput, Box<(SurfaceOutput, Error)>> {
     match mesh_surface_held(phi, opts, size, true, Start::Given(smooth.mesh.clone()), None) {
         Ok(Ok(mut out)) => {
             out.report.seconds += smooth.report.seconds;
             Ok(out)
         }
-        Ok(Err(e)) | Err(e) => Err((smooth, e)),
+        Ok(Err(e)) | Err(e) => Err(Box::new((smooth, e))),
     }
 }
 
