@@ -197,7 +197,9 @@ struct SharpRow {
 }
 
 fn sharp_row(name: &str, surf: &TriSurface, h0: f64) -> Result<SharpRow, String> {
-    let out = mesh_surface(surf, &surf.surface_options(h0)).map_err(|e| format!("| {name} | {h0} | error: {e} |"))?;
+    // As the command line does: the features held at the mesh size.
+    let held = surf.clone().with_feature_size(Some(h0));
+    let out = mesh_surface(&held, &held.surface_options(h0)).map_err(|e| format!("| {name} | {h0} | error: {e} |"))?;
     let q = &out.report.quality;
     let remeshed = TriSurface::from_mesh_data(&MeshData::from_trimesh3(&out.mesh)).expect("a valid closed surface");
     let (gap, corners) = feature_gap(surf, &remeshed, h0);
@@ -265,4 +267,49 @@ fn surface_remeshing_keeps_the_family_within_005_h() {
         }
     }
     assert!(failed.is_empty(), "{failed:?}");
+}
+
+/// One row of the coarse-rim table: the remeshed prism's figures with its rims pinned (the
+/// features held at the mesh size, as the command line does) and the feature gap without.
+fn coarse_rim_row(n: usize, h0: f64) -> Result<SharpRow, String> {
+    let surf = trisurf_inputs::polygon_prism(n, 0.4, 0.5);
+    let unpinned =
+        mesh_surface(&surf, &surf.surface_options(h0)).map_err(|e| format!("| {n} | {h0} | error: {e} |"))?;
+    let loose = TriSurface::from_mesh_data(&MeshData::from_trimesh3(&unpinned.mesh)).expect("a valid closed surface");
+    let (loose_gap, _) = feature_gap(&surf, &loose, h0);
+    let row = sharp_row(&format!("{n}-gon prism"), &surf, h0)?;
+    println!("|   (without pins: feature gap {loose_gap:.3} h0) |");
+    Ok(row)
+}
+
+/// A cylinder as a CAD export tessellates it (a prism over a regular n-gon whose sides are
+/// longer than the mesh size, the rims turning 15 to 30 degrees at each vertex): the rims'
+/// vertices are pinned, so every input feature edge is within 0.05 h of the output's (output
+/// vertices sliding between the input's cut its corners by up to theta h / 4, 0.06 to 0.13 h),
+/// at min angle 30 degrees or more.
+#[test]
+fn coarse_rims_are_held_at_their_input_vertices() {
+    println!("{SHARP_HEADER}");
+    let mut failed = Vec::new();
+    for (n, h0) in [(12, 0.1), (16, 0.1), (20, 0.1), (24, 0.1), (16, 0.08), (20, 0.08), (24, 0.08)] {
+        match coarse_rim_row(n, h0) {
+            Ok(r) if r.gap <= 0.05 && r.min_angle >= 30.0 && r.mean_q >= 0.96 && r.euler_kept => {}
+            Ok(_) => failed.push((n, h0)),
+            Err(row) => {
+                println!("{row}");
+                failed.push((n, h0));
+            }
+        }
+    }
+    assert!(failed.is_empty(), "{failed:?}");
+}
+
+/// The 12-gon prism at h0 0.08 (sides 2.6 h): holding the rims crosses the surface over itself,
+/// with or without pins, and the result is rounded (with the report's warning).
+#[test]
+#[ignore = "not reached: the 12-gon prism at h0 0.08 falls back to the rounded mesh (holding its rims crossed the surface over itself)"]
+fn coarse_rims_of_a_12_gon_at_h0_008() {
+    println!("{SHARP_HEADER}");
+    let r = coarse_rim_row(12, 0.08).expect("a mesh");
+    assert!(r.gap <= 0.05 && r.min_angle >= 30.0, "gap {:.3} h, {:.1} degrees", r.gap, r.min_angle);
 }

@@ -163,6 +163,11 @@ pub trait Creases: Sync {
     /// The point nearest `p` on the curve between patches `a` and `b`, with the curve's unit
     /// tangent there; `None` when the two patches do not meet.
     fn onto(&self, a: u32, b: u32, p: DVec3) -> Option<(DVec3, DVec3)>;
+    /// Points on the curves (not corners) that the mesh holds a vertex at: where a curve given
+    /// in coarse steps turns sharply. None by default.
+    fn pins(&self) -> &[DVec3] {
+        &[]
+    }
 }
 
 /// Points per parallel task of the default batch evaluations.

@@ -182,3 +182,25 @@ pub fn feature_gap(input: &TriSurface, out: &TriSurface, h0: f64) -> (f64, usize
         .fold(0.0, f64::max);
     (worst / h0, fout.corners.len())
 }
+
+/// A prism over a regular `n`-gon of circumradius `r`, from z = -`half` to `half`: the coarse
+/// tessellation a CAD export gives a cylinder (its rims turn 360 / n degrees at each vertex),
+/// the caps fanned from their centres and each wall rectangle cut into two triangles.
+pub fn polygon_prism(n: usize, r: f64, half: f64) -> TriSurface {
+    let mut pts: Vec<[f64; 3]> = vec![[0.0, 0.0, -half], [0.0, 0.0, half]];
+    for z in [-half, half] {
+        for k in 0..n {
+            let a = std::f64::consts::TAU * k as f64 / n as f64;
+            pts.push([r * a.cos(), r * a.sin(), z]);
+        }
+    }
+    let (lo, hi) = (|k: usize| 2 + k % n, |k: usize| 2 + n + k % n);
+    let mut tris = Vec::new();
+    for k in 0..n {
+        tris.push([0, hi(k + 1) - n, lo(k)]);
+        tris.push([1, hi(k), hi(k + 1)]);
+        tris.push([lo(k), lo(k + 1), hi(k + 1)]);
+        tris.push([lo(k), hi(k + 1), hi(k)]);
+    }
+    TriSurface::new(pts, tris).expect("a closed prism")
+}

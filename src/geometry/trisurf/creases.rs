@@ -21,15 +21,18 @@ pub struct CreaseData {
     patch: Vec<u32>,
     /// The corners: input vertices where three or more patches meet.
     corners: Vec<DVec3>,
+    /// The pins: input vertices where a curve turns sharply (see [`pins`]).
+    pins: Vec<DVec3>,
     /// The feature edges between each two patches (lower label first), as segments.
     curves: HashMap<(u32, u32), Vec<[DVec3; 2]>>,
 }
 
 impl CreaseData {
-    /// The patches of `s` at `angle_deg` degrees, those narrower than `narrow` merged into a
-    /// neighbour (see [`merge_narrow`]); `None` when the surface has no feature edge between
-    /// two different patches, or more patches than the mesher can label.
-    pub(super) fn new(s: &TriSurface, angle_deg: f64, narrow: f64) -> Option<CreaseData> {
+    /// The patches of `s` at `angle_deg` degrees, with the mesh size `h` (if known) those
+    /// narrower than NARROW_FACE h merged into a neighbour (see [`merge_narrow`]) and the
+    /// curves' sharp turns pinned (see [`pins`]); `None` when the surface has no feature edge
+    /// between two different patches, or more patches than the mesher can label.
+    pub(super) fn new(s: &TriSurface, angle_deg: f64, h: Option<f64>) -> Option<CreaseData> {
         let cos_max = angle_deg.to_radians().cos();
         let n = s.tris.len();
         let sharp = |t: usize, w: usize| s.normals.face(t).dot(s.normals.face(w)) < cos_max;
@@ -42,8 +45,8 @@ impl CreaseData {
                 }
             }
         }
-        if narrow > 0.0 {
-            merge_narrow(s, &mut sets, narrow);
+        if let Some(h) = h {
+            merge_narrow(s, &mut sets, NARROW_FACE * h);
         }
         // Labels in the order of each patch's first triangle: deterministic.
         let mut label: HashMap<usize, u32> = HashMap::new();
@@ -77,8 +80,72 @@ impl CreaseData {
             return None;
         }
         let corners: Vec<DVec3> = (0..s.points.len()).filter(|&v| around[v].len() >= 3).map(|v| s.points[v]).collect();
-        Some(CreaseData { patch, corners, curves })
+        let pins = h.map_or_else(Vec::new, |h| pins(s, &patch, &corners, PIN_GAP * h));
+        Some(CreaseData { patch, corners, pins, curves })
     }
+}
+
+/// An input vertex where a feature curve turns by more than this (radians, 8.6 degrees) is
+/// pinned when its curve is tessellated coarser than the mesh: an output edge of length c whose
+/// ends slide along the input's curve on either side of a turn theta cuts it by up to
+/// theta c / 4 (0.06 to 0.13 h for the 15 to 30 degree steps of a cylinder's rim in a CAD
+/// export), and a pin holds an output vertex there instead.
+pub(super) const PIN_TURN: f64 = 0.15;
+/// Pins need both of their curve edges in the input at least this many mesh sizes long, and lie
+/// at least as far from the corners and from each other: finer curves are followed by the
+/// sliding vertices within a sag, and pins closer than the mesh size would force short edges
+/// (measured on the part at h0 0.08, whose rims are tessellated at about h: pins down to 0.5 h
+/// apart held the rims exactly but left 26-29 degree triangles).
+pub(super) const PIN_GAP: f64 = 1.0;
+
+/// The pins of the curves of `s` (see [`PIN_TURN`]): input vertices on exactly one curve
+/// (between two patches, two feature edges, both at least `gap` long) that turn by more than
+/// PIN_TURN, sharpest first (the lower vertex on a tie), each kept when at least `gap` from the
+/// corners and the pins kept before it.
+fn pins(s: &TriSurface, patch: &[u32], corners: &[DVec3], gap: f64) -> Vec<DVec3> {
+    if gap.is_nan() || gap <= 0.0 {
+        return Vec::new();
+    }
+    let p = &s.points;
+    let mut along: Vec<smallvec::SmallVec<[usize; 2]>> = vec![smallvec::SmallVec::new(); p.len()];
+    for (t, tri) in s.tris.iter().enumerate() {
+        for k in 0..3 {
+            let w = s.neighbors[t][k];
+            if w > t && patch[t] != patch[w] {
+                let (i, j) = (tri[k], tri[(k + 1) % 3]);
+                along[i].push(j);
+                along[j].push(i);
+            }
+        }
+    }
+    let mut turns: Vec<(f64, usize)> = (0..p.len())
+        .filter(|&v| along[v].len() == 2 && along[v].iter().all(|&w| p[w].distance(p[v]) >= gap))
+        .map(|v| ((p[v] - p[along[v][0]]).angle_between(p[along[v][1]] - p[v]), v))
+        .filter(|&(turn, _)| turn > PIN_TURN)
+        .collect();
+    if turns.is_empty() {
+        return Vec::new();
+    }
+    turns.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    // A hash grid of cell `gap`: a point within `gap` of q lies in one of the 27 cells around q's.
+    let cell = |q: DVec3| (q / gap).floor().as_i64vec3();
+    let mut grid: HashMap<glam::I64Vec3, Vec<DVec3>> = HashMap::new();
+    for &c in corners {
+        grid.entry(cell(c)).or_default().push(c);
+    }
+    let mut out = Vec::new();
+    for (_, v) in turns {
+        let (q, c) = (p[v], cell(p[v]));
+        let near =
+            (-1..=1).flat_map(|x| (-1..=1).flat_map(move |y| (-1..=1).map(move |z| glam::I64Vec3::new(x, y, z))));
+        let crowded =
+            near.into_iter().any(|d| grid.get(&(c + d)).is_some_and(|l| l.iter().any(|k| k.distance(q) < gap)));
+        if !crowded {
+            grid.entry(c).or_default().push(q);
+            out.push(q);
+        }
+    }
+    out
 }
 
 /// A patch narrower than this many mesh sizes (twice its area over its perimeter) is merged
@@ -164,6 +231,9 @@ impl Creases for TriSurface {
     }
     fn corners(&self) -> &[DVec3] {
         self.crease_data().map_or(&[], |d| &d.corners)
+    }
+    fn pins(&self) -> &[DVec3] {
+        self.crease_data().map_or(&[], |d| &d.pins)
     }
     fn onto(&self, a: u32, b: u32, p: DVec3) -> Option<(DVec3, DVec3)> {
         let segs = self.crease_data()?.curves.get(&(a.min(b), a.max(b)))?;

@@ -118,10 +118,7 @@ impl TriSurface {
     /// The patches and curves the surface mesher holds, if any.
     fn crease_data(&self) -> Option<&creases::CreaseData> {
         self.creases
-            .get_or_init(|| {
-                let narrow = self.feature_size.map_or(0.0, |h| creases::NARROW_FACE * h);
-                self.feature_angle.and_then(|a| creases::CreaseData::new(self, a, narrow))
-            })
+            .get_or_init(|| self.feature_angle.and_then(|a| creases::CreaseData::new(self, a, self.feature_size)))
             .as_ref()
     }
 

@@ -385,6 +385,9 @@ pub(crate) fn run_moving(
         let geo =
             improve::Geometry { h: &|p| ctx.h(p), project: &|p| ctx.project(p), fscale: opts.fscale, dt: opts.deltat };
         let changes = if start.is_none() { improve::search(&mut mesh, &geo)? } else { 0 };
+        if trace {
+            eprintln!("search: {changes} local changes, done at {:.3} s", t0.elapsed().as_secs_f64());
+        }
         let kept = smoothing::polish(&mut mesh, &geo)?;
         if trace {
             eprintln!("polish: {changes} local changes, {kept} sweeps, done at {:.3} s", t0.elapsed().as_secs_f64());

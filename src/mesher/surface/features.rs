@@ -37,6 +37,9 @@ const CORNER_TRIES: usize = 12;
 /// Faces of another patch beyond which a labelled region is taken to have leaked across a
 /// curve (strays near a corner are a few).
 const LEAK_FACES: usize = 4;
+/// A pin farther than this many edge lengths from the nearest curve edge is not on the cut
+/// curve (see [`hold_pins`]).
+const PIN_REACH: f64 = 0.5;
 /// Steps of the projection onto a feature curve.
 const CURVE_STEPS: usize = 8;
 
@@ -615,7 +618,63 @@ fn imprint_given(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, c: &dyn Creases) -
             place(m, v, q, (n1 + n2).normalize_or_zero());
         }
     }
+    hold_pins(m, c.pins());
     true
+}
+
+/// Holds a vertex at each pin (a point on a curve, [`Creases::pins`]): the curve edge nearest
+/// the pin is split there, or its end moves onto it when near, and the vertex is fixed. A pin
+/// with no curve edge within PIN_REACH edge lengths is left (its curve was not cut there).
+fn hold_pins(m: &mut TriMesh<DVec3>, pins: &[DVec3]) {
+    if pins.is_empty() {
+        return;
+    }
+    let mut edges: Vec<(VertexId, VertexId)> =
+        m.edge_ids().filter(|&h| m.is_constrained_edge(h)).map(|h| (m.origin(h), m.dest(h))).collect();
+    for &k in pins {
+        // The nearest curve edge, its parameter at the pin and the pin's distance from it.
+        let mut best: Option<(f64, usize, f64)> = None;
+        for (i, &(a, b)) in edges.iter().enumerate() {
+            if !m.contains_vertex(a) || !m.contains_vertex(b) {
+                continue;
+            }
+            let (pa, pb) = (m.pos(a), m.pos(b));
+            let d = pb - pa;
+            let t = ((k - pa).dot(d) / d.length_squared()).clamp(0.0, 1.0);
+            let dist = k.distance(pa + d * t);
+            if best.is_none_or(|x| dist < x.0) {
+                best = Some((dist, i, t));
+            }
+        }
+        let Some((dist, i, t)) = best else { return };
+        let (a, b) = edges[i];
+        let Some(h) = m.find_half_edge(a, b) else { continue };
+        let len = m.pos(a).distance(m.pos(b));
+        // A chord of the curve cuts a turn theta by up to theta len / 4.
+        if dist > PIN_REACH * len {
+            continue;
+        }
+        let (n1, n2) = match (m.face_of(h), m.face_of(m.twin(h))) {
+            (Some(f), Some(g)) => (face_normal(m, f), face_normal(m, g)),
+            _ => continue,
+        };
+        let dir = (n1 + n2).normalize_or_zero();
+        // The nearer end, if it slides on the curve, moves onto the pin (the curve's vertices
+        // then even out around it); a split would leave an edge shorter than half the others.
+        let end = if t < 0.5 { a } else { b };
+        if t.min(1.0 - t) < CUT_END && m.tag(end) == VertexTag::Fixed {
+            continue;
+        }
+        if matches!(m.tag(end), VertexTag::InternalBoundary { .. }) && place(m, end, k, dir) {
+            m.set_tag(end, VertexTag::Fixed);
+            continue;
+        }
+        if let Some(v) = split(m, h, k) {
+            m.set_tag(v, VertexTag::Fixed);
+            edges[i] = (a, v);
+            edges.push((v, b));
+        }
+    }
 }
 
 /// The pair of patches a curve vertex was cut or found on.
