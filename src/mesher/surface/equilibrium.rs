@@ -98,9 +98,10 @@ pub(super) fn force_loop(
         runaway: None,
     };
     let start_vertices = m.num_vertices();
+    let mut grads = GradCache::new();
     for it in 1..=opts.max_iter {
         run.iterations = it;
-        let moved = force_step(&mut m, phi, size, opts, tol, &mut run.undone)?;
+        let moved = force_step(&mut m, phi, size, opts, tol, &mut run.undone, &mut grads)?;
         since_flips += moved;
         if since_flips > truss::TTOL {
             counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 5);
@@ -187,6 +188,12 @@ fn score_and_worst(m: &TriMesh<DVec3>, size: &SizeField, watch: f64) -> (f64, Ve
     (min_q + sum / m.num_faces().max(1) as f64 - dev, worst)
 }
 
+/// grad phi at each vertex where the last step left it (the projection onto phi = 0 returns
+/// it): the next step's tangent plane there costs no evaluation. An entry counts only while
+/// the vertex is exactly at the position stored with it (splits, collapses and smoothing move
+/// vertices without passing here).
+type GradCache = SecondaryMap<VertexId, (DVec3, DVec3)>;
+
 /// One truss step (seed eq. 2.6 forces, forward Euler in the tangent plane, projection).
 /// Returns the largest node movement relative to h.
 fn force_step(
@@ -196,6 +203,7 @@ fn force_step(
     opts: &SurfaceOptions,
     tol: f64,
     undone: &mut usize,
+    grads: &mut GradCache,
 ) -> Result<f64, Error> {
     let ids: Vec<VertexId> = m.vertex_ids().collect();
     let mut index: SecondaryMap<VertexId, u32> = SecondaryMap::with_capacity(ids.len());
@@ -233,7 +241,10 @@ fn force_step(
                 // Along the feature curve only; corners stay.
                 return features::held_target(mesh, phi, v, opts.deltat * fi, size.at(p), tol);
             }
-            let n = normal(phi, p);
+            let n = match grads.get(v) {
+                Some(&(at, g)) if at == p => g.normalize_or_zero(),
+                _ => normal(phi, p),
+            };
             let f = fi - fi.dot(n) * n;
             geom::project_grad(phi, p + opts.deltat * f, tol).map(Some)
         })
@@ -252,7 +263,10 @@ fn force_step(
             continue;
         }
         match backtrack(p, q, 0, |y| Ok::<bool, Error>(move_if_no_fold_g(m, v, y, g)))? {
-            Some(y) => moved = moved.max(y.distance(p) / size.at(p)),
+            Some(y) => {
+                moved = moved.max(y.distance(p) / size.at(p));
+                grads.insert(v, (q, g));
+            }
             None => *undone += 1,
         }
     }
