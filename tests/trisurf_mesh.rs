@@ -313,3 +313,42 @@ fn coarse_rims_of_a_12_gon_at_h0_008() {
     let r = coarse_rim_row(12, 0.08).expect("a mesh");
     assert!(r.gap <= 0.05 && r.min_angle >= 30.0, "gap {:.3} h, {:.1} degrees", r.gap, r.min_angle);
 }
+
+/// Tetrahedra inside cylinders tessellated as CAD exports do (prisms over regular n-gons): the
+/// issue's targets for input with sharp edges (min dihedral 25 degrees or more, mean radius
+/// ratio 0.88 or more, volume within 1%).
+#[test]
+#[ignore = "not reached: at h0 0.08 the 12-gon ends in an internal error (the boundary crosses itself) and the 16-gon has a 1.0 degree tetrahedron (reported as poor): boundary nodes whose nearest point of the input is on a convex edge between two wall facets (22.5 or 30 degrees, not a feature) land exactly on that edge, and four nearly collinear ones make a flat tet that no pass removes"]
+fn volume_meshes_inside_coarse_prisms() {
+    println!("| n-gon | h0 | tets | min dihedral | max dihedral | mean rr | volume error | feature gap / h0 |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let mut failed = Vec::new();
+    for (n, h0) in [(12, 0.1), (16, 0.1), (20, 0.1), (24, 0.1), (12, 0.08), (16, 0.08), (20, 0.08), (24, 0.08)] {
+        let surf = trisurf_inputs::polygon_prism(n, 0.4, 0.5);
+        let out = match mesh_3d(&surf, &surf.volume_options(h0, None, Some(DEFAULT_FEATURE_ANGLE))) {
+            Ok(out) => out,
+            Err(e) => {
+                println!("| {n} | {h0} | error: {e} |");
+                failed.push((n, h0));
+                continue;
+            }
+        };
+        let data = tet_data(&out.mesh);
+        let vol_err = (tet_volume(&data) / surf.volume() - 1.0).abs();
+        let boundary = TriSurface::from_mesh_data(&data).expect("closed boundary");
+        let (gap, _) = feature_gap(&surf, &boundary, h0);
+        let q = &out.report.quality;
+        println!(
+            "| {n} | {h0} | {} | {:.1} | {:.1} | {:.3} | {:.2}% | {gap:.3} |",
+            q.tets,
+            q.dihedral_min,
+            q.dihedral_max,
+            q.rr_mean,
+            100.0 * vol_err
+        );
+        if q.dihedral_min < 25.0 || q.rr_mean < 0.88 || vol_err > 0.01 {
+            failed.push((n, h0));
+        }
+    }
+    assert!(failed.is_empty(), "{failed:?}");
+}
