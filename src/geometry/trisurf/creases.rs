@@ -61,6 +61,8 @@ impl CreaseData {
         }
         let mut curves: HashMap<(u32, u32), Vec<[DVec3; 2]>> = HashMap::new();
         let mut around: Vec<Vec<u32>> = vec![Vec::new(); s.points.len()];
+        // Each vertex's neighbours along the curves, for the pins.
+        let mut along: Vec<smallvec::SmallVec<[usize; 2]>> = vec![smallvec::SmallVec::new(); s.points.len()];
         for t in 0..n {
             for &v in &s.tris[t] {
                 if !around[v].contains(&patch[t]) {
@@ -73,6 +75,8 @@ impl CreaseData {
                 if w > t && a != b {
                     let (i, j) = (s.tris[t][k], s.tris[t][(k + 1) % 3]);
                     curves.entry((a.min(b), a.max(b))).or_default().push([s.points[i], s.points[j]]);
+                    along[i].push(j);
+                    along[j].push(i);
                 }
             }
         }
@@ -80,7 +84,7 @@ impl CreaseData {
             return None;
         }
         let corners: Vec<DVec3> = (0..s.points.len()).filter(|&v| around[v].len() >= 3).map(|v| s.points[v]).collect();
-        let pins = h.map_or_else(Vec::new, |h| pins(s, &patch, &corners, PIN_GAP * h));
+        let pins = h.map_or_else(Vec::new, |h| pins(&s.points, &along, &corners, PIN_GAP * h));
         Some(CreaseData { patch, corners, pins, curves })
     }
 }
@@ -98,25 +102,13 @@ pub(super) const PIN_TURN: f64 = 0.15;
 /// apart held the rims exactly but left 26-29 degree triangles).
 pub(super) const PIN_GAP: f64 = 1.0;
 
-/// The pins of the curves of `s` (see [`PIN_TURN`]): input vertices on exactly one curve
-/// (between two patches, two feature edges, both at least `gap` long) that turn by more than
-/// PIN_TURN, sharpest first (the lower vertex on a tie), each kept when at least `gap` from the
-/// corners and the pins kept before it.
-fn pins(s: &TriSurface, patch: &[u32], corners: &[DVec3], gap: f64) -> Vec<DVec3> {
+/// The pins of the curves (see [`PIN_TURN`]), given as each vertex's neighbours along them:
+/// vertices on exactly one curve (two neighbours, both at least `gap` away) that turn by more
+/// than PIN_TURN, sharpest first (the lower vertex on a tie), each kept when at least `gap` from
+/// the corners and the pins kept before it.
+fn pins(p: &[DVec3], along: &[smallvec::SmallVec<[usize; 2]>], corners: &[DVec3], gap: f64) -> Vec<DVec3> {
     if gap.is_nan() || gap <= 0.0 {
         return Vec::new();
-    }
-    let p = &s.points;
-    let mut along: Vec<smallvec::SmallVec<[usize; 2]>> = vec![smallvec::SmallVec::new(); p.len()];
-    for (t, tri) in s.tris.iter().enumerate() {
-        for k in 0..3 {
-            let w = s.neighbors[t][k];
-            if w > t && patch[t] != patch[w] {
-                let (i, j) = (tri[k], tri[(k + 1) % 3]);
-                along[i].push(j);
-                along[j].push(i);
-            }
-        }
     }
     let mut turns: Vec<(f64, usize)> = (0..p.len())
         .filter(|&v| along[v].len() == 2 && along[v].iter().all(|&w| p[w].distance(p[v]) >= gap))
