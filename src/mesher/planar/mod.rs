@@ -390,7 +390,7 @@ pub(crate) fn run_moving(
         }
         let kept = smoothing::polish(&mut mesh, &geo)?;
         if trace {
-            eprintln!("polish: {changes} local changes, {kept} sweeps, done at {:.3} s", t0.elapsed().as_secs_f64());
+            eprintln!("polish: {kept} sweeps, done at {:.3} s", t0.elapsed().as_secs_f64());
         }
     }
     for v in frozen {
