@@ -314,41 +314,82 @@ fn coarse_rims_of_a_12_gon_at_h0_008() {
     assert!(r.gap <= 0.05 && r.min_angle >= 30.0, "gap {:.3} h, {:.1} degrees", r.gap, r.min_angle);
 }
 
-/// Tetrahedra inside cylinders tessellated as CAD exports do (prisms over regular n-gons): the
-/// issue's targets for input with sharp edges (min dihedral 25 degrees or more, mean radius
-/// ratio 0.88 or more, volume within 1%).
-#[test]
-#[ignore = "not reached: at h0 0.08 the 12-gon ends in an internal error (the boundary crosses itself) and the 16-gon has a 1.0 degree tetrahedron (reported as poor): boundary nodes whose nearest point of the input is on a convex edge between two wall facets (22.5 or 30 degrees, not a feature) land exactly on that edge, and four nearly collinear ones make a flat tet that no pass removes"]
-fn volume_meshes_inside_coarse_prisms() {
-    println!("| n-gon | h0 | tets | min dihedral | max dihedral | mean rr | volume error | feature gap / h0 |");
-    println!("|---|---|---|---|---|---|---|---|");
-    let mut failed = Vec::new();
-    for (n, h0) in [(12, 0.1), (16, 0.1), (20, 0.1), (24, 0.1), (12, 0.08), (16, 0.08), (20, 0.08), (24, 0.08)] {
-        let surf = trisurf_inputs::polygon_prism(n, 0.4, 0.5);
-        let out = match mesh_3d(&surf, &surf.volume_options(h0, None, Some(DEFAULT_FEATURE_ANGLE))) {
-            Ok(out) => out,
-            Err(e) => {
-                println!("| {n} | {h0} | error: {e} |");
-                failed.push((n, h0));
-                continue;
+/// One volume run inside a prism over a regular n-gon: the measures of the table.
+struct PrismRow {
+    ok: bool,
+    gap: f64,
+}
+
+/// Tetrahedra inside the n-gon prism of radius `r` at `h0`; prints the table row.
+fn prism_row(n: usize, r: f64, h0: f64) -> PrismRow {
+    let surf = trisurf_inputs::polygon_prism(n, r, 0.5);
+    let out = match mesh_3d(&surf, &surf.volume_options(h0, None, Some(DEFAULT_FEATURE_ANGLE))) {
+        Ok(out) => out,
+        Err(e) => {
+            println!("| {n} | {r} | {h0} | error: {e} |");
+            return PrismRow { ok: false, gap: f64::INFINITY };
+        }
+    };
+    let data = tet_data(&out.mesh);
+    let vol_err = (tet_volume(&data) / surf.volume() - 1.0).abs();
+    let boundary = TriSurface::from_mesh_data(&data).expect("closed boundary");
+    let (gap, _) = feature_gap(&surf, &boundary, h0);
+    let q = &out.report.quality;
+    let wall = 2.0 * r * (std::f64::consts::PI / n as f64).sin() / h0;
+    println!(
+        "| {n} | {r} | {wall:.2} | {h0} | {} | {:.1} | {:.1} | {:.3} | {:.2}% | {gap:.3} |",
+        q.tets,
+        q.dihedral_min,
+        q.dihedral_max,
+        q.rr_mean,
+        100.0 * vol_err
+    );
+    // The targets for input with sharp edges.
+    PrismRow { ok: q.dihedral_min >= 25.0 && q.rr_mean >= 0.88 && vol_err <= 0.01, gap }
+}
+
+/// The family of prisms: n-gons of 10 to 24 sides, radii 0.3 and 0.4, h0 0.1 to 0.06 (walls
+/// 1.0 to 4.2 mesh sizes wide).
+fn prism_family(mut each: impl FnMut(usize, f64, f64, PrismRow)) {
+    println!("| n-gon | radius | wall / h0 | h0 | tets | min dihedral | max dihedral | mean rr | volume error | feature gap / h0 |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for h0 in [0.1, 0.08, 0.06] {
+        for n in [10, 12, 14, 16, 20, 24] {
+            // (A radius of 0.3 at h0 0.1, three mesh sizes, loses 1.2 to 1.5% of the volume to
+            // the chords of the mesh's boundary, beyond the 1% target at any feature handling.)
+            for r in [0.3, 0.4].into_iter().filter(|&r| r / h0 > 3.5) {
+                each(n, r, h0, prism_row(n, r, h0));
             }
-        };
-        let data = tet_data(&out.mesh);
-        let vol_err = (tet_volume(&data) / surf.volume() - 1.0).abs();
-        let boundary = TriSurface::from_mesh_data(&data).expect("closed boundary");
-        let (gap, _) = feature_gap(&surf, &boundary, h0);
-        let q = &out.report.quality;
-        println!(
-            "| {n} | {h0} | {} | {:.1} | {:.1} | {:.3} | {:.2}% | {gap:.3} |",
-            q.tets,
-            q.dihedral_min,
-            q.dihedral_max,
-            q.rr_mean,
-            100.0 * vol_err
-        );
-        if q.dihedral_min < 25.0 || q.rr_mean < 0.88 || vol_err > 0.01 {
-            failed.push((n, h0));
         }
     }
+}
+
+/// Tetrahedra inside cylinders tessellated as CAD exports do (prisms over regular n-gons): the
+/// issue's targets for input with sharp edges (min dihedral 25 degrees or more, mean radius
+/// ratio 0.88 or more, volume within 1%). Walls wider than the mesh resolves have their creases
+/// held (`TriSurface::features_resolved`); unheld, the 12-gon of radius 0.4 at h0 0.08 ended in
+/// a self-crossing boundary, the 16-gon in a 1.0 degree tetrahedron, and three n-gons at h0
+/// 0.06 in internal errors.
+#[test]
+fn volume_meshes_inside_coarse_prisms() {
+    let mut failed = Vec::new();
+    prism_family(|n, r, h0, row| {
+        if !row.ok {
+            failed.push((n, r, h0));
+        }
+    });
     assert!(failed.is_empty(), "{failed:?}");
+}
+
+/// The rims of the prism family within 0.05 h of the output's feature edges.
+#[test]
+#[ignore = "not reached: walls narrower than 1.5 h are smooth to the mesher and their rims are cut by the polygon's chords (0.06 to 0.1 h); where walls are held, a free boundary node settled beside the rim between two fixed points leaves 0.28 and 0.32 h in two of 30 runs"]
+fn volume_keeps_the_rims_of_coarse_prisms() {
+    let mut failed = Vec::new();
+    prism_family(|n, r, h0, row| {
+        if row.gap > 0.05 {
+            failed.push(format!("{n}-gon r {r} h0 {h0}: gap {:.3} h", row.gap));
+        }
+    });
+    assert!(failed.is_empty(), "{failed:#?}");
 }

@@ -30,11 +30,11 @@ impl TriSurface {
             None => 1.0,
         };
         if let Some(angle) = feature_angle {
-            let features = self.features(angle);
             let spacing = |p: DVec3| match &size {
                 Some(h) if smin.is_finite() => h0 * h(p) / smin,
                 _ => h0,
             };
+            let features = self.features_resolved(angle, Some(&spacing));
             o = o.with_fixed(features.sample(self, &spacing));
         }
         if let Some(h) = size {

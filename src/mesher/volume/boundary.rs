@@ -12,8 +12,20 @@ use crate::Error;
 use glam::DVec3;
 use std::collections::HashMap;
 
+/// A boundary edge whose midpoint is farther than this times its length from d = 0 cuts across
+/// a sharp edge of the domain (a smooth surface's chord sags by about len / (8 R) times len).
+const CUT: f64 = 0.1;
+/// The flip of such an edge is tried when the other diagonal's midpoint is this much nearer.
+const CUT_GAIN: f64 = 0.5;
+/// The four nodes must lie within this times the edge's length of d = 0.
+const CUT_ON: f64 = 1e-3;
+/// Priority of those flips over the Delaunay ones (angle sums are below 2 pi).
+const CUT_FIRST: f64 = 10.0;
+
 /// Boundary edges whose two boundary triangles fail the planar Delaunay test (opposite angles
-/// summing past 180 degrees) are flipped when the tets allow it; returns the count.
+/// summing past 180 degrees), and boundary edges that cut across a sharp edge of the domain
+/// while the other diagonal of their two triangles follows it, are flipped when the tets allow
+/// it; returns the count.
 pub(super) fn surface_flips(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
     let mut faces: HashMap<(TVertexId, TVertexId), TVertexId> = HashMap::new();
     let bfaces = m.boundary_faces();
@@ -34,6 +46,22 @@ pub(super) fn surface_flips(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Err
         let s = ang(pc, pa, pb) + ang(pd, pa, pb);
         if s > std::f64::consts::PI + 1e-3 {
             cands.push((s, a, b));
+            continue;
+        }
+        // An edge that cuts across a sharp edge of the domain (its midpoint far from d = 0)
+        // where the other diagonal lies on d = 0: the flip restores the edge of the domain.
+        let dab = ctx.approx_dist((pa + pb) * 0.5)?.abs();
+        let len = pa.distance(pb);
+        if dab > CUT * len {
+            // Only between nodes that lie on d = 0 (not on their way there, early on).
+            let mut on = true;
+            for q in [pa, pb, pc, pd] {
+                on &= ctx.approx_dist(q)?.abs() < CUT_ON * len;
+            }
+            let dcd = ctx.approx_dist((pc + pd) * 0.5)?.abs();
+            if on && dcd < CUT_GAIN * dab {
+                cands.push((CUT_FIRST + dab / pa.distance(pb), a, b));
+            }
         }
     }
     cands.sort_by(|x, y| y.0.total_cmp(&x.0).then((x.1, x.2).cmp(&(y.1, y.2))));
