@@ -320,13 +320,15 @@ struct PrismRow {
     gap: f64,
 }
 
-/// Tetrahedra inside the n-gon prism of radius `r` at `h0`; prints the table row.
-fn prism_row(n: usize, r: f64, h0: f64) -> PrismRow {
-    let surf = trisurf_inputs::polygon_prism(n, r, 0.5);
+/// Tetrahedra inside the n-gon prism (or with `cone`, the cone of height 1) of radius `r` at
+/// `h0`; prints the table row.
+fn prism_row(n: usize, r: f64, h0: f64, cone: bool) -> PrismRow {
+    let surf = if cone { trisurf_inputs::polygon_cone(n, r, 1.0) } else { trisurf_inputs::polygon_prism(n, r, 0.5) };
+    let kind = if cone { "cone" } else { "prism" };
     let out = match mesh_3d(&surf, &surf.volume_options(h0, None, Some(DEFAULT_FEATURE_ANGLE))) {
         Ok(out) => out,
         Err(e) => {
-            println!("| {n} | {r} | {h0} | error: {e} |");
+            println!("| {kind} | {n} | {r} | {h0} | error: {e} |");
             return PrismRow { ok: false, gap: f64::INFINITY };
         }
     };
@@ -337,7 +339,7 @@ fn prism_row(n: usize, r: f64, h0: f64) -> PrismRow {
     let q = &out.report.quality;
     let wall = 2.0 * r * (std::f64::consts::PI / n as f64).sin() / h0;
     println!(
-        "| {n} | {r} | {wall:.2} | {h0} | {} | {:.1} | {:.1} | {:.3} | {:.2}% | {gap:.3} |",
+        "| {kind} | {n} | {r} | {wall:.2} | {h0} | {} | {:.1} | {:.1} | {:.3} | {:.2}% | {gap:.3} |",
         q.tets,
         q.dihedral_min,
         q.dihedral_max,
@@ -349,17 +351,22 @@ fn prism_row(n: usize, r: f64, h0: f64) -> PrismRow {
 }
 
 /// The family of prisms: n-gons of 10 to 24 sides, radii 0.3 and 0.4, h0 0.1 to 0.06 (walls
-/// 1.0 to 4.2 mesh sizes wide).
-fn prism_family(mut each: impl FnMut(usize, f64, f64, PrismRow)) {
-    println!("| n-gon | radius | wall / h0 | h0 | tets | min dihedral | max dihedral | mean rr | volume error | feature gap / h0 |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+/// 1.0 to 4.2 mesh sizes wide); and cones of radius 0.5 over 10, 16 and 24 sides, whose facets
+/// narrow to nothing at the apex.
+fn prism_family(mut each: impl FnMut(&str, f64, PrismRow)) {
+    println!("| solid | n-gon | radius | wall / h0 | h0 | tets | min dihedral | max dihedral | mean rr | volume error | feature gap / h0 |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for h0 in [0.1, 0.08, 0.06] {
         for n in [10, 12, 14, 16, 20, 24] {
             // (A radius of 0.3 at h0 0.1, three mesh sizes, loses 1.2 to 1.5% of the volume to
             // the chords of the mesh's boundary, beyond the 1% target at any feature handling.)
             for r in [0.3, 0.4].into_iter().filter(|&r| r / h0 > 3.5) {
-                each(n, r, h0, prism_row(n, r, h0));
+                each(&format!("{n}-gon prism r {r} h0 {h0}"), h0, prism_row(n, r, h0, false));
             }
+        }
+        // (Cones at h0 0.1 lose 1.0 to 1.7% of their volume to the chords near the apex.)
+        for n in [10, 16, 24].into_iter().filter(|_| h0 < 0.09) {
+            each(&format!("{n}-gon cone h0 {h0}"), h0, prism_row(n, 0.5, h0, true));
         }
     }
 }
@@ -373,9 +380,9 @@ fn prism_family(mut each: impl FnMut(usize, f64, f64, PrismRow)) {
 #[test]
 fn volume_meshes_inside_coarse_prisms() {
     let mut failed = Vec::new();
-    prism_family(|n, r, h0, row| {
+    prism_family(|case, _, row| {
         if !row.ok {
-            failed.push((n, r, h0));
+            failed.push(case.to_string());
         }
     });
     assert!(failed.is_empty(), "{failed:?}");
@@ -383,12 +390,12 @@ fn volume_meshes_inside_coarse_prisms() {
 
 /// The rims of the prism family within 0.05 h of the output's feature edges.
 #[test]
-#[ignore = "not reached: walls narrower than 1.5 h are smooth to the mesher and their rims are cut by the polygon's chords (0.06 to 0.1 h); where walls are held, a free boundary node settled beside the rim between two fixed points leaves 0.28 and 0.32 h in two of 30 runs"]
+#[ignore = "not reached: walls narrower than 1.5 h are smooth to the mesher and their rims are cut by the polygon's chords (0.06 to 0.1 h); where walls are held, a free boundary node settled beside the rim between two fixed points leaves 0.28 to 0.40 h in three of 36 runs"]
 fn volume_keeps_the_rims_of_coarse_prisms() {
     let mut failed = Vec::new();
-    prism_family(|n, r, h0, row| {
+    prism_family(|case, _, row| {
         if row.gap > 0.05 {
-            failed.push(format!("{n}-gon r {r} h0 {h0}: gap {:.3} h", row.gap));
+            failed.push(format!("{case}: gap {:.3} h", row.gap));
         }
     });
     assert!(failed.is_empty(), "{failed:#?}");

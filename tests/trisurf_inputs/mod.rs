@@ -204,3 +204,20 @@ pub fn polygon_prism(n: usize, r: f64, half: f64) -> TriSurface {
     }
     TriSurface::new(pts, tris).expect("a closed prism")
 }
+
+/// A cone over a regular `n`-gon of circumradius `r` at z = 0, apex at z = `height`: the coarse
+/// tessellation a CAD export gives a cone (its facets narrow to nothing at the apex).
+pub fn polygon_cone(n: usize, r: f64, height: f64) -> TriSurface {
+    let mut pts: Vec<[f64; 3]> = vec![[0.0, 0.0, 0.0], [0.0, 0.0, height]];
+    for k in 0..n {
+        let a = std::f64::consts::TAU * k as f64 / n as f64;
+        pts.push([r * a.cos(), r * a.sin(), 0.0]);
+    }
+    let mut tris = Vec::new();
+    for k in 0..n {
+        let (a, b) = (2 + k, 2 + (k + 1) % n);
+        tris.push([0, b, a]);
+        tris.push([1, a, b]);
+    }
+    TriSurface::new(pts, tris).expect("a closed cone")
+}

@@ -150,6 +150,57 @@ impl TriSurface {
     }
 }
 
+/// Triangles whose normals differ by less than this (degrees) lie in one flat facet.
+const FLAT_DEG: f64 = 1.0;
+
+impl TriSurface {
+    /// The width of the flat facet across the edge `k` of triangle `t` at `q` (a point of that
+    /// edge): the length of the segment from `q` into `t`, perpendicular to the edge in the
+    /// facet's plane, until it leaves the facet (crosses an edge that turns by more than
+    /// FLAT_DEG, or the surface's last triangle); at most `limit`. Walls between parallel
+    /// creases are as wide everywhere; the facets of a cone narrow to nothing at its apex.
+    pub(super) fn width_across(&self, t: usize, k: usize, q: DVec3, limit: f64) -> f64 {
+        let p = &self.points;
+        let cos_flat = FLAT_DEG.to_radians().cos();
+        let (a, b) = (p[self.tris[t][k]], p[self.tris[t][(k + 1) % 3]]);
+        let n = self.normals.face(t);
+        let mut d = n.cross(b - a).normalize_or_zero();
+        if d.dot(p[self.tris[t][(k + 2) % 3]] - a) < 0.0 {
+            d = -d;
+        }
+        let (mut cur, mut entry, mut x, mut gone) = (t, k, q, 0.0);
+        for _ in 0..64 {
+            // The exit: the nearer crossing of the ray with the two other edges of `cur`.
+            let mut exit: Option<(f64, usize)> = None;
+            for e in (0..3).filter(|&e| e != entry) {
+                let (u, v) = (p[self.tris[cur][e]], p[self.tris[cur][(e + 1) % 3]]);
+                let m = self.normals.face(cur).cross(v - u);
+                let dm = d.dot(m);
+                if dm.abs() < 1e-300 {
+                    continue;
+                }
+                let sd = (u - x).dot(m) / dm;
+                let along = (x + d * sd - u).dot(v - u) / (v - u).length_squared();
+                if sd > 0.0 && (-1e-9..=1.0 + 1e-9).contains(&along) && exit.is_none_or(|(s0, _)| sd < s0) {
+                    exit = Some((sd, e));
+                }
+            }
+            let Some((sd, e)) = exit else { return gone };
+            gone += sd;
+            if gone >= limit {
+                return limit;
+            }
+            let w = self.neighbors[cur][e];
+            if self.normals.face(cur).dot(self.normals.face(w)) < cos_flat {
+                return gone;
+            }
+            let Some(back) = (0..3).find(|&j| self.neighbors[w][j] == cur) else { return gone };
+            (cur, entry, x) = (w, back, x + d * sd);
+        }
+        gone
+    }
+}
+
 impl Features {
     /// Points on the feature curves about `spacing(p)` apart (absolute lengths): every corner,
     /// then on each curve points at equal steps of the integral of 1 / spacing along it, the
@@ -157,6 +208,17 @@ impl Features {
     /// the input's edges, so on the surface. A curve point nearer than half the spacing to one
     /// already placed (of another curve) is left out.
     pub fn sample(&self, surface: &TriSurface, spacing: &dyn Fn(DVec3) -> f64) -> Vec<DVec3> {
+        self.sample_where(surface, spacing, &|_, _| true)
+    }
+
+    /// [`Features::sample`], keeping only the curve points `q` for which `keep(q, [a, b])` holds,
+    /// where a-b is the input edge under q (corners are all kept).
+    pub fn sample_where(
+        &self,
+        surface: &TriSurface,
+        spacing: &dyn Fn(DVec3) -> f64,
+        keep: &dyn Fn(DVec3, [usize; 2]) -> bool,
+    ) -> Vec<DVec3> {
         let p = &surface.points;
         let mut out: Vec<DVec3> = self.corners.iter().map(|&c| p[c]).collect();
         for curve in &self.curves {
@@ -184,12 +246,109 @@ impl Features {
                 let u = if s1 > s0 { ((s - s0) / (s1 - s0)).clamp(0.0, 1.0) } else { 0.0 };
                 let q = p[curve[seg]].lerp(p[curve[seg + 1]], u);
                 let h = spacing(q);
-                if out[..first].iter().any(|o| o.distance(q) < 0.5 * h) {
+                if out[..first].iter().any(|o| o.distance(q) < 0.5 * h) || !keep(q, [curve[seg], curve[seg + 1]]) {
                     continue;
                 }
                 out.push(q);
             }
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A prism over a regular n-gon of radius `r` (height 1), or with `apex` a cone of height 1.
+    fn polygon_solid(n: usize, r: f64, apex: bool) -> TriSurface {
+        let mut pts: Vec<[f64; 3]> = vec![[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]];
+        let ring = |z: f64| {
+            (0..n).map(move |k| {
+                let a = std::f64::consts::TAU * k as f64 / n as f64;
+                [r * a.cos(), r * a.sin(), z]
+            })
+        };
+        pts.extend(ring(0.0));
+        if !apex {
+            pts.extend(ring(1.0));
+        }
+        let mut tris = Vec::new();
+        for k in 0..n {
+            let (a, b) = (2 + k, 2 + (k + 1) % n);
+            tris.push([0, b, a]);
+            if apex {
+                tris.push([1, a, b]);
+            } else {
+                let (c, d) = (a + n, b + n);
+                tris.extend([[1, c, d], [a, b, d], [a, d, c]]);
+            }
+        }
+        TriSurface::new(pts, tris).expect("closed")
+    }
+
+    /// The input vertex at `x`.
+    fn at(s: &TriSurface, x: [f64; 3]) -> usize {
+        s.points.iter().position(|p| p.distance(DVec3::from_array(x)) < 1e-12).expect("a vertex there")
+    }
+
+    /// The two sides (triangle, edge index) of the input edge a-b.
+    fn sides(s: &TriSurface, a: usize, b: usize) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        for (t, tri) in s.tris.iter().enumerate() {
+            for k in 0..3 {
+                let (u, v) = (tri[k], tri[(k + 1) % 3]);
+                if (u, v) == (a, b) || (u, v) == (b, a) {
+                    out.push((t, k));
+                }
+            }
+        }
+        assert_eq!(out.len(), 2, "edge {a}-{b}");
+        out
+    }
+
+    #[test]
+    fn a_prism_wall_is_as_wide_everywhere_and_a_cone_facet_narrows() {
+        let n = 12;
+        let wall = 2.0 * 0.4 * (std::f64::consts::PI / n as f64).sin();
+        let prism = polygon_solid(n, 0.4, false);
+        // The crease over the ring's first vertex, from both of its sides, at three heights.
+        let (lo, hi) = (at(&prism, [0.4, 0.0, 0.0]), at(&prism, [0.4, 0.0, 1.0]));
+        let (pl, ph) = (prism.points[lo], prism.points[hi]);
+        for (t, k) in sides(&prism, lo, hi) {
+            for z in [0.05, 0.5, 0.95] {
+                let w = prism.width_across(t, k, pl.lerp(ph, z), 1.0);
+                assert!((w - wall).abs() < 1e-12, "wall width {w} vs {wall}");
+            }
+            // Capped at the limit.
+            assert_eq!(prism.width_across(t, k, pl.lerp(ph, 0.5), 0.01), 0.01);
+        }
+        // A cone's facet: its width across the slant edge falls linearly to zero at the apex
+        // (from the foot of the facet's height over that edge, near the base).
+        let cone = polygon_solid(n, 0.4, true);
+        let (apex, base) = (at(&cone, [0.0, 0.0, 1.0]), at(&cone, [0.4, 0.0, 0.0]));
+        let (pa, pb) = (cone.points[apex], cone.points[base]);
+        for (t, k) in sides(&cone, apex, base) {
+            let width = |s: f64| cone.width_across(t, k, pa.lerp(pb, s), 1.0);
+            let full = width(0.9) / 0.9;
+            assert!(full > 0.1, "{full}");
+            for s in [0.01, 0.25, 0.5, 0.75] {
+                assert!((width(s) - s * full).abs() < 1e-9, "width at {s}: {} vs {}", width(s), s * full);
+            }
+        }
+    }
+
+    #[test]
+    fn coarse_creases_are_held_only_where_the_mesh_resolves_them() {
+        let prism = polygon_solid(12, 0.4, false);
+        let wall = 2.0 * 0.4 * (std::f64::consts::PI / 12.0).sin();
+        let plain = prism.features(DEFAULT_FEATURE_ANGLE);
+        // At h = wall / 2 the 12 wall creases join the 24 rim edges.
+        let fine = prism.features_resolved(DEFAULT_FEATURE_ANGLE, Some(&|_| 0.5 * wall));
+        assert_eq!((plain.edges.len(), fine.edges.len()), (24, 36));
+        assert_eq!(fine.corners.len(), 24);
+        // At h = wall the walls are narrower than COARSE_WIDTH h: smooth.
+        let coarse = prism.features_resolved(DEFAULT_FEATURE_ANGLE, Some(&|_| wall));
+        assert_eq!(coarse.edges, plain.edges);
     }
 }

@@ -1,10 +1,12 @@
 //! The meshers' options for a triangulated geometry: the box from the input, and for
 //! tetrahedra the input's sharp features held as fixed points.
 
+use super::features::COARSE_WIDTH;
 use super::TriSurface;
 use crate::mesher::{Options3, SizeFn3};
 use crate::surface::SurfaceOptions;
 use glam::DVec3;
+use std::collections::HashMap;
 
 impl TriSurface {
     /// The bounding box grown by max(h0, 1e-3 of its diagonal) on every side: a box for the
@@ -35,7 +37,27 @@ impl TriSurface {
                 _ => h0,
             };
             let features = self.features_resolved(angle, Some(&spacing));
-            o = o.with_fixed(features.sample(self, &spacing));
+            // The sides of each coarse crease (not a feature edge at `angle`): a crease point is
+            // held where the facets on both sides are COARSE_WIDTH h wide across it there.
+            let cos_max = angle.to_radians().cos();
+            let mut sides: HashMap<[usize; 2], Vec<(usize, usize)>> = HashMap::new();
+            for (t, tri) in self.tris.iter().enumerate() {
+                for k in 0..3 {
+                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                    let key = [a.min(b), a.max(b)];
+                    let w = self.neighbors[t][k];
+                    let smooth = self.normals.face(t).dot(self.normals.face(w)) >= cos_max;
+                    if smooth && features.edges.binary_search(&key).is_ok() {
+                        sides.entry(key).or_default().push((t, k));
+                    }
+                }
+            }
+            let keep = |q: DVec3, [a, b]: [usize; 2]| {
+                let Some(list) = sides.get(&[a.min(b), a.max(b)]) else { return true };
+                let limit = COARSE_WIDTH * spacing(q);
+                list.iter().all(|&(t, k)| self.width_across(t, k, q, limit) >= limit)
+            };
+            o = o.with_fixed(features.sample_where(self, &spacing, &keep));
         }
         if let Some(h) = size {
             o.size = Some(h);
