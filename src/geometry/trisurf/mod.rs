@@ -28,7 +28,7 @@ mod sign;
 pub use bvh::Closest;
 pub use check::SurfaceError;
 pub use distance::Feature;
-pub use features::{Features, DEFAULT_FEATURE_ANGLE};
+pub use features::{Features, COARSE_TURN_DEG, COARSE_WIDTH, DEFAULT_FEATURE_ANGLE};
 
 use super::Implicit3;
 use crate::io::MeshData;
