@@ -124,6 +124,9 @@ impl TriSurface {
     }
 }
 
+/// Triangles whose normals differ by less than this (degrees) lie in one flat facet.
+const FLAT_DEG: f64 = 1.0;
+
 impl TriSurface {
     /// Whether the edge `k` of triangle `t` is a coarse crease at mesh size `h` (see
     /// [`TriSurface::features_resolved`]).
@@ -148,12 +151,7 @@ impl TriSurface {
             && height(t, k) >= COARSE_WIDTH * h
             && (0..3).find(|&j| self.neighbors[w][j] == t).is_some_and(|j| height(w, j) >= COARSE_WIDTH * h)
     }
-}
 
-/// Triangles whose normals differ by less than this (degrees) lie in one flat facet.
-const FLAT_DEG: f64 = 1.0;
-
-impl TriSurface {
     /// The width of the flat facet across the edge `k` of triangle `t` at `q` (a point of that
     /// edge): the length of the segment from `q` into `t`, perpendicular to the edge in the
     /// facet's plane, until it leaves the facet (crosses an edge that turns by more than
