@@ -168,6 +168,22 @@ pub trait Creases: Sync {
     fn pins(&self) -> &[DVec3] {
         &[]
     }
+    /// The surface as a closed triangulation whose edges include every curve: a start that
+    /// has the features as its own edges. None by default.
+    fn triangulation(&self) -> Option<LabelledTriangulation> {
+        None
+    }
+}
+
+/// A closed triangulated surface with the patch of each triangle ([`Creases::triangulation`]).
+#[derive(Clone, Debug)]
+pub struct LabelledTriangulation {
+    /// The vertices.
+    pub points: Vec<DVec3>,
+    /// The triangles, counter-clockwise seen from outside.
+    pub triangles: Vec<[usize; 3]>,
+    /// The patch of each triangle.
+    pub patch: Vec<u32>,
 }
 
 /// Points per parallel task of the default batch evaluations.

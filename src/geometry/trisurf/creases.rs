@@ -6,7 +6,7 @@
 //! own edges there, exactly (see [`crate::geometry::Creases`]).
 
 use super::TriSurface;
-use crate::geometry::Creases;
+use crate::geometry::{Creases, LabelledTriangulation};
 use crate::topology::DisjointSets;
 use glam::DVec3;
 use std::collections::HashMap;
@@ -226,6 +226,14 @@ impl Creases for TriSurface {
     }
     fn pins(&self) -> &[DVec3] {
         self.crease_data().map_or(&[], |d| &d.pins)
+    }
+    fn triangulation(&self) -> Option<LabelledTriangulation> {
+        let data = self.crease_data()?;
+        Some(LabelledTriangulation {
+            points: self.points.clone(),
+            triangles: self.tris.clone(),
+            patch: data.patch.clone(),
+        })
     }
     fn onto(&self, a: u32, b: u32, p: DVec3) -> Option<(DVec3, DVec3)> {
         let segs = self.crease_data()?.curves.get(&(a.min(b), a.max(b)))?;

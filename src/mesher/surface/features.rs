@@ -622,6 +622,27 @@ fn imprint_given(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, c: &dyn Creases) -
     true
 }
 
+/// The geometry's own triangulation ([`Creases::triangulation`]) as a start: its curves are its
+/// edges, so nothing is cut; its faces are labelled by their patches, its vertices tagged by
+/// the labels around them, and the pins held. None when the geometry gives none or it does not
+/// load into the engine.
+pub(super) fn input_start(c: &dyn Creases) -> Option<TriMesh<DVec3>> {
+    let t = c.triangulation()?;
+    let (mut m, _) = TriMesh::from_arrays(&t.points, &t.triangles).ok()?;
+    let patch = t.patch;
+    // The engine numbers the faces in the order of the triangles given.
+    let faces: Vec<_> = m.face_ids().collect();
+    if faces.len() != patch.len() {
+        return None;
+    }
+    for (f, l) in faces.into_iter().zip(patch) {
+        m.set_label(f, l);
+    }
+    tag_by_labels(&mut m);
+    hold_pins(&mut m, c.pins());
+    Some(m)
+}
+
 /// Holds a vertex at each pin (a point on a curve, [`Creases::pins`]): the curve edge nearest
 /// the pin is split there, or its end moves onto it when near, and the vertex is fixed. A pin
 /// with no curve edge within PIN_REACH edge lengths is left (its curve was not cut there).

@@ -125,7 +125,10 @@ const PROJECT_TOL: f64 = 1e-9;
 /// below quality HELD_MIN_Q, they are cut into the smooth mesh (meshed without them) and held
 /// from there, and failing that too the smooth mesh is the result, its report saying so. A
 /// geometry that gives its features exactly ([`Implicit3::creases`]: a triangulated surface)
-/// is meshed smooth first and its features cut into that mesh, with the same fallback.
+/// is meshed smooth first and its features cut into that mesh; should that fail, they are cut
+/// into the marching start, and failing that too the geometry's own triangulation is the start
+/// ([`Creases::triangulation`](crate::geometry::Creases::triangulation)), before the smooth
+/// mesh is the result.
 pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
     // The size field once for every run below (on a grid from --size auto it may take longer
     // than the meshing); its time counts in the report's.
@@ -140,11 +143,7 @@ pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<Surfac
 
 /// [`mesh_surface`] with its size field made.
 fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeField) -> Result<SurfaceOutput, Error> {
-    let trace = |e: &Error| {
-        if std::env::var_os("TRUSSMESH_TRACE").is_some() {
-            eprintln!("holding sharp features failed ({e}): the surface is meshed without them");
-        }
-    };
+    let trace = trace_held;
     if phi.creases().is_some() {
         // Features given exactly: they are cut into the smooth mesh, whose even triangles cut
         // cleanly (a marching start has bands of nodes projected onto a convex edge, some of
@@ -154,21 +153,25 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
             Ok(out) => out,
             // A smooth mesh that fails the final check (folded or crossing itself where it
             // rounds a corner) is still a start to cut the features into: holding them often
-            // mends it. Its error stands if that fails too.
+            // mends it; the other starts follow (a coarse cone's rim, rounded at h0 0.1, folded
+            // the smooth mesh beyond mending). The smooth run's error stands if all fail.
             Err(e) => {
                 trace(&e);
-                return match invalid.map(|start| mesh_surface_held(phi, opts, size, true, Start::Given(start), None)) {
-                    Some(Ok(Ok(out))) => Ok(out),
-                    _ => Err(e),
+                // Only a surface that was made and failed the check: other errors (a sheet too
+                // thin, a runaway, bad values) would fail again.
+                return match invalid {
+                    Some(m) => held_fallbacks(phi, opts, size, Some(m)).ok_or(e),
+                    None => Err(e),
                 };
             }
         };
         return Ok(match held_from_smooth(phi, opts, size, smooth) {
-            Ok(out) => out,
+            Ok(out) => or_from_input(phi, opts, size, out),
             Err(failed) => {
                 let (smooth, e) = *failed;
                 trace(&e);
-                rounded(smooth, &e)
+                // The other starts next; the smooth mesh is the last resort.
+                held_fallbacks(phi, opts, size, None).unwrap_or_else(|| rounded(smooth, &e))
             }
         });
     }
@@ -191,6 +194,83 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
                 }
             }
         }
+    }
+}
+
+/// Runs holding the given features from the starts after the smooth mesh, in turn, until one
+/// passes: the invalid smooth mesh `invalid` (if any) with the features cut into it, the
+/// marching start with them cut into it, and the geometry's own triangulation (whose edges are
+/// the features: a flat cone's 31 degree rim, a wedge thinner than two edges for 0.2 from the
+/// rim, rounds into a fold from the other starts). None when every one fails.
+fn held_fallbacks(
+    phi: &dyn Implicit3,
+    opts: &SurfaceOptions,
+    size: &SizeField,
+    invalid: Option<TriMesh<DVec3>>,
+) -> Option<SurfaceOutput> {
+    let input = phi.creases().and_then(features::input_start).map(Start::Input);
+    let starts = invalid.map(Start::Given).into_iter().chain([Start::Marched { top: start::MAX_LEVELS }]).chain(input);
+    for from in starts {
+        match mesh_surface_held(phi, opts, size, true, from, None) {
+            Ok(Ok(out)) => return Some(out),
+            Ok(Err(e)) | Err(e) => trace_held(&e),
+        }
+    }
+    None
+}
+
+/// The floors of a surface holding sharp features: min angle in degrees and mean q (the
+/// issue's targets for remeshing input with sharp edges). A result below either is made again
+/// from the input's own triangulation, and the better of the two kept.
+const HELD_FLOOR_ANGLE: f64 = 30.0;
+const HELD_FLOOR_MEAN_Q: f64 = 0.97;
+
+/// `out`, or when it misses the floors above, the run from the geometry's own triangulation
+/// if that comes nearer them (the time of both counted): the cut starts and the input's
+/// each reach the floors where the other misses them (measured: a 12-gon tube at h0 0.08,
+/// 23.8 degrees cut into the smooth mesh against 36.1 from the input's triangulation; a turned
+/// box the other way, 35.7 against 30.0).
+fn or_from_input(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeField, out: SurfaceOutput) -> SurfaceOutput {
+    let q = &out.report.quality;
+    if q.min_angle >= HELD_FLOOR_ANGLE && q.mean_q >= HELD_FLOOR_MEAN_Q {
+        return out;
+    }
+    let Some(m) = phi.creases().and_then(features::input_start) else { return out };
+    match mesh_surface_held(phi, opts, size, true, Start::Input(m), None) {
+        Ok(Ok(mut other)) => {
+            let (a, b) = (&other.report.quality, &out.report.quality);
+            // How near each comes to the floors (each term 1 at or above its floor), then the
+            // min angle.
+            let reach = |q: &SurfaceQuality| {
+                (q.min_angle / HELD_FLOOR_ANGLE).min(1.0) + (q.mean_q / HELD_FLOOR_MEAN_Q).min(1.0)
+            };
+            let better = (reach(a), a.min_angle) > (reach(b), b.min_angle);
+            if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+                eprintln!(
+                    "held result below the floors (min angle {:.1}, mean q {:.4}); from the input's own triangulation: {:.1}, {:.4}",
+                    b.min_angle, b.mean_q, a.min_angle, a.mean_q
+                );
+            }
+            if better {
+                other.report.seconds += out.report.seconds;
+                other
+            } else {
+                let mut out = out;
+                out.report.seconds += other.report.seconds;
+                out
+            }
+        }
+        Ok(Err(e)) | Err(e) => {
+            trace_held(&e);
+            out
+        }
+    }
+}
+
+/// With TRUSSMESH_TRACE set, says why a run holding the sharp features failed.
+fn trace_held(e: &Error) {
+    if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+        eprintln!("holding sharp features failed ({e}): the surface is meshed without them");
     }
 }
 
@@ -217,11 +297,29 @@ fn rounded(mut out: SurfaceOutput, e: &Error) -> SurfaceOutput {
     out
 }
 
+/// About how many vertices a mesh of the surface of `m` at the sizes of `size` has: two
+/// triangles per vertex, each of area sqrt 3 / 4 h^2 at the size at its centroid.
+fn expected_vertices(m: &TriMesh<DVec3>, size: &SizeField) -> usize {
+    let triangles: f64 = m
+        .face_ids()
+        .map(|f| {
+            let [a, b, c] = m.face_vertices(f).map(|v| m.pos(v));
+            let h = size.at((a + b + c) / 3.0);
+            0.5 * (b - a).cross(c - a).length() / (0.25 * 3f64.sqrt() * h * h)
+        })
+        .sum();
+    (0.5 * triangles) as usize
+}
+
 /// Where a run starts: a given mesh (its features cut into it) or the marching start made at
 /// no coarser level than `top`.
 enum Start {
     Given(TriMesh<DVec3>),
-    Marched { top: u32 },
+    /// The geometry's own labelled triangulation ([`features::input_start`]), used as it is.
+    Input(TriMesh<DVec3>),
+    Marched {
+        top: u32,
+    },
 }
 
 /// A run without sharp features from the marching start, made again from the next finer start
@@ -277,9 +375,12 @@ fn mesh_surface_held(
             }
             (g, 0, true)
         }
+        Start::Input(g) => (g, 0, true),
         Start::Marched { top } => start::start_mesh(phi, opts.bbox, hmin, tol, sharp, top)?,
     };
-    let start_vertices = m.num_vertices();
+    // The growth allowed is counted from the vertices the size asks for when the start is
+    // coarser (the input's own triangulation: a cone of 18 vertices).
+    let start_vertices = m.num_vertices().max(expected_vertices(&m, &size));
     let mut report: Report<SurfaceQuality> = Report::default();
     let mut st = SurfaceStages::default();
     let stages = levels as usize + 3;
@@ -366,8 +467,12 @@ fn mesh_surface_held(
             VertexTag::Interior => project(phi, mesh.pos(v), 1e-3 * tol),
             VertexTag::InternalBoundary { .. } => {
                 let p = mesh.pos(v);
-                let q = features::held_target(mesh, phi, v, DVec3::ZERO, size.at(p), 1e-3 * tol)?;
-                Ok(q.map_or(p, |q| q.0))
+                // A vertex whose curve is not found near it (mislabelled by the cut) is projected
+                // as any other: it must end on phi = 0 all the same.
+                match features::held_target(mesh, phi, v, DVec3::ZERO, size.at(p), 1e-3 * tol)? {
+                    Some((q, _)) => Ok(q),
+                    None => project(phi, p, 1e-3 * tol),
+                }
             }
             _ => Ok(mesh.pos(v)),
         })

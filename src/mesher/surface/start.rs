@@ -27,6 +27,9 @@ pub const MAX_GRID_NODES: u64 = 64_000_000;
 /// how thin a start triangle can be (the projection moves the points onto phi = 0 after).
 const T_CLAMP: f64 = 0.02;
 
+/// Grid values within this many spacings of zero count as zero (and so as outside).
+const ON_ZERO: f64 = 1e-12;
+
 /// Coarsest start level: the start mesh is made at up to 2^MAX_LEVELS times the target size.
 pub(super) const MAX_LEVELS: u32 = 3;
 /// The largest marching grid for the reference topology (about 250^3 nodes).
@@ -81,7 +84,18 @@ pub fn march(phi: &dyn Implicit3, bbox: [DVec3; 2], h: f64) -> Result<Marched, E
             }
         }
     });
-    let f = fill_signs(near, n, reach, || phi.value(at(0, 0, 0)));
+    let mut f = fill_signs(near, n, reach, || phi.value(at(0, 0, 0)));
+    // A grid node on phi = 0 up to rounding counts as outside: the sign of a value that small
+    // is noise (a distance to a triangulated face through a plane of grid nodes comes out as
+    // +-1e-17), and noisy signs along such a plane march a crumpled sheet whose projection
+    // onto the face folds (coarse cones whose base lay on a grid plane failed so at h0 0.06
+    // to 0.1).
+    let on_zero = ON_ZERO * h;
+    for v in &mut f {
+        if v.abs() <= on_zero {
+            *v = 0.0;
+        }
+    }
     let (mut neg, mut pos) = (false, false);
     for (m, &v) in f.iter().enumerate() {
         if !v.is_finite() {
