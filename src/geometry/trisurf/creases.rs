@@ -18,7 +18,7 @@ const MAX_PATCHES: usize = 65_535;
 #[derive(Clone, Debug, Default)]
 pub struct CreaseData {
     /// The patch of each input triangle.
-    patch: Vec<u32>,
+    pub(super) patch: Vec<u32>,
     /// The corners: input vertices where three or more patches meet.
     corners: Vec<DVec3>,
     /// The pins: input vertices where a curve turns sharply (see [`pins`]).

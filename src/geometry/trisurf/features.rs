@@ -49,9 +49,25 @@ impl TriSurface {
     /// where nearly collinear nodes make flat tetrahedra; held as a feature, the crease gets
     /// evenly spaced nodes instead. Creases of a fine tessellation (edges or triangles shorter
     /// than h) stay smooth, whatever their turn, so that noise is never taken for a feature.
+    ///
+    /// With `spacing`, an edge sharp at `angle_deg` counts only where it parts two of the smooth
+    /// patches that the surface mesher labels at the smallest spacing at a vertex (patches
+    /// narrower than a quarter of it merged, see [`Creases`](crate::geometry::Creases)): on a
+    /// noisy scan the edges that turn past the angle are short and scattered, bound no patch,
+    /// and held as fixed points they would pin the mesh at points closer than its edges.
     pub fn features_resolved(&self, angle_deg: f64, spacing: Option<&dyn Fn(DVec3) -> f64>) -> Features {
         let cos_max = angle_deg.to_radians().cos();
         let p = &self.points;
+        let patches = spacing.map(|h| {
+            let hmin = p.iter().map(|&x| h(x)).filter(|v| *v > 0.0 && v.is_finite()).fold(f64::INFINITY, f64::min);
+            super::creases::CreaseData::new(self, angle_deg, hmin.is_finite().then_some(hmin)).map(|d| d.patch)
+        });
+        // Whether triangles t and w lie in different patches (always, without a spacing).
+        let parted = |t: usize, w: usize| match &patches {
+            None => true,
+            Some(None) => false,
+            Some(Some(patch)) => patch[t] != patch[w],
+        };
         let mut edges = Vec::new();
         for (t, tri) in self.tris.iter().enumerate() {
             for k in 0..3 {
@@ -63,7 +79,7 @@ impl TriSurface {
                 }
                 let cos = self.normals.face(t).dot(self.normals.face(w));
                 let coarse = || spacing.is_some_and(|h| self.coarse_crease(t, k, h((p[a] + p[b]) * 0.5)));
-                if cos < cos_max || coarse() {
+                if (cos < cos_max && parted(t, w)) || coarse() {
                     edges.push([a.min(b), a.max(b)]);
                 }
             }
