@@ -217,6 +217,62 @@ fn try_crowd_collapse(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> bool {
     true
 }
 
+/// A tet below this tq at the end, with a boundary face, is flat on the boundary (see
+/// [`clear_flat_boundary_tets`]).
+const FLAT_TQ: f64 = 1e-3;
+/// Rounds of [`clear_flat_boundary_tets`]: each removal can free a neighbour's.
+const FLAT_ROUNDS: usize = 8;
+
+/// Removes the tets left flat on the boundary (tq below FLAT_TQ, a face on it): a cluster of
+/// them can lie in one plane of the boundary, each wedged by the others (its free edge already
+/// on the boundary) and one of them capping a fixed point that only it holds, so that neither
+/// the swaps nor the removals of the polish apply. Such a cap's fixed point lies in the plane
+/// of the face under it and goes with it (the face keeps the feature's place on the surface);
+/// the rest leave one after the other as their neighbours go, or by [`try_swaps`]. Returns
+/// the number of changes.
+pub(super) fn clear_flat_boundary_tets(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
+    let mut changes = 0;
+    for _ in 0..FLAT_ROUNDS {
+        let flat: Vec<TetId> = m
+            .tet_ids()
+            .filter(|&t| m.tet(t).adj.iter().any(|a| a.is_none()) && tet_dihedral_quality(m.tet_points(t)) < FLAT_TQ)
+            .collect();
+        let mut changed = 0;
+        for t in flat {
+            if !m.contains_tet(t) {
+                continue;
+            }
+            let tx = *m.tet(t);
+            if tx.adj.iter().filter(|a| a.is_none()).count() == 3 {
+                // The cap's apex: the vertex of its one interior face's opposite corner.
+                if let Some(i) = tx.adj.iter().position(|a| a.is_some()) {
+                    let v = tx.v[i];
+                    if m.tag(v) == VertexTag::Fixed && m.vertex_tets(v).len() == 1 {
+                        m.set_tag(v, VertexTag::Boundary);
+                        if m.remove_boundary_tet(t).is_ok() {
+                            ctx.report.ops.removed += 1;
+                            changed += 1;
+                            continue;
+                        }
+                        m.set_tag(v, VertexTag::Fixed);
+                    }
+                }
+            }
+            if m.remove_boundary_tet(t).is_ok() {
+                ctx.report.ops.removed += 1;
+                changed += 1;
+            } else if try_swaps(ctx, m, t)? {
+                changed += 1;
+            }
+        }
+        changes += changed;
+        if changed == 0 {
+            break;
+        }
+    }
+    Ok(changes)
+}
+
 /// Applies [`find_swap`]'s choice for `t`, if any.
 pub(super) fn try_swaps(ctx: &mut Ctx, m: &mut TetMesh, t: TetId) -> Result<bool, Error> {
     match find_swap(ctx, m, t)? {
