@@ -298,6 +298,36 @@ fn bad_surfaces_refused() {
     assert!(f.signed_distance(DVec3::ZERO) < 0.0);
 }
 
+/// A zero-length edge, as CAD exports write them (two corners of a triangle at one point): the
+/// two triangles on it are dropped, which collapses it, and the rest is a valid closed surface.
+/// A triangle with three distinct corners on a line (no area) is still refused.
+#[test]
+fn zero_length_edges_are_collapsed() {
+    let s = sphere();
+    let mut pts: Vec<[f64; 3]> = s.points().iter().map(|p| p.to_array()).collect();
+    let tris = s.triangles().to_vec();
+    let [a, b, _] = tris[0];
+    pts[b] = pts[a];
+    let r = TriSurface::new(pts, tris.clone()).expect("the zero-length edge collapses");
+    println!(
+        "sphere of {} triangles with one zero-length edge: {} dropped, {} left, Euler {}",
+        tris.len(),
+        r.dropped_triangles(),
+        r.triangles().len(),
+        r.euler_characteristic()
+    );
+    assert_eq!(r.dropped_triangles(), 2);
+    assert_eq!(r.triangles().len(), tris.len() - 2);
+    assert_eq!(r.euler_characteristic(), 2);
+    assert!((r.volume() / s.volume() - 1.0).abs() < 1e-2);
+    assert_eq!(s.dropped_triangles(), 0);
+    // Three distinct corners on a line: no area, refused.
+    let flat = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    expect_surface_error(TriSurface::new(flat, vec![[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]]), "collinear", |e| {
+        matches!(e, SurfaceError::Degenerate { .. })
+    });
+}
+
 /// Reading every format: each written by the project's own writers (and binary STL and PLY by
 /// hand), read back to the same surface.
 #[test]

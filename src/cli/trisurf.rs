@@ -29,10 +29,18 @@ fn read(path: &str) -> Result<TriSurface, Failure> {
     if !p.exists() {
         return Err(Failure::bad(format!("the surface file {} does not exist", p.display())));
     }
-    TriSurface::read(p).map_err(|e| match e {
+    let s = TriSurface::read(p).map_err(|e| match e {
         trussmesh::Error::Surface(_) => Failure::bad(format!("{}: {e}", p.display())),
         e => e.into(),
-    })
+    })?;
+    if s.dropped_triangles() > 0 {
+        eprintln!(
+            "note: {}: {} triangles with two coincident corners dropped (their zero-length edges collapsed)",
+            p.display(),
+            s.dropped_triangles()
+        );
+    }
+    Ok(s)
 }
 
 /// The feature angle of the flags: None when features are off (`--no-sharp`).

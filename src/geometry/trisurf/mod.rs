@@ -60,14 +60,17 @@ pub struct TriSurface {
     creases: std::sync::OnceLock<Option<creases::CreaseData>>,
     /// The curvature at each vertex at `feature_angle`, made when first asked for.
     curvature: std::sync::OnceLock<Vec<f64>>,
+    /// Input triangles dropped for a repeated corner (see [`TriSurface::dropped_triangles`]).
+    dropped: usize,
 }
 
 impl TriSurface {
-    /// Checks and indexes a triangle mesh: exact duplicate vertices are merged and unused ones
-    /// dropped (so vertex numbers in errors and [`Features`] are of the merged mesh),
+    /// Checks and indexes a triangle mesh: exact duplicate vertices are merged, triangles that
+    /// then repeat a vertex dropped (see [`TriSurface::dropped_triangles`]) and unused vertices
+    /// too (so vertex numbers in errors and [`Features`] are of the merged mesh),
     /// triangles turned to a consistent outward orientation. Errors: [`SurfaceError`].
     pub fn new(points: Vec<[f64; 3]>, tris: Vec<[usize; 3]>) -> Result<TriSurface, Error> {
-        let (points, tris) = weld(points, tris)?;
+        let (points, tris, dropped) = weld(points, tris)?;
         let checked = check::check(&points, tris)?;
         let corners: Vec<[DVec3; 3]> = checked.tris.iter().map(|t| t.map(|v| points[v])).collect();
         let bvh = bvh::Bvh::new(&corners);
@@ -91,7 +94,14 @@ impl TriSurface {
             feature_size: None,
             creases: std::sync::OnceLock::new(),
             curvature: std::sync::OnceLock::new(),
+            dropped,
         })
+    }
+
+    /// How many input triangles were dropped because two of their corners coincide (after
+    /// merging exact duplicates): zero-length edges, collapsed.
+    pub fn dropped_triangles(&self) -> usize {
+        self.dropped
     }
 
     /// The surface with the feature angle (degrees) at which the surface mesher holds its
@@ -261,8 +271,42 @@ impl Implicit3 for TriSurface {
     }
 }
 
+/// The vertices, the triangles and the number of triangles dropped by [`weld`].
+type Welded = (Vec<DVec3>, Vec<[usize; 3]>, usize);
+
+/// Merges vertices with exactly equal coordinates (-0 and 0 alike), drops the triangles that
+/// then repeat a vertex (zero-length edges, which CAD exports write: dropping both triangles on
+/// such an edge collapses it) and the vertices no triangle uses. Returns the vertices, the
+/// triangles and the number of triangles dropped.
+fn weld(points: Vec<[f64; 3]>, tris: Vec<[usize; 3]>) -> Result<Welded, SurfaceError> {
+    let (merged, all) = weld_exact(points, tris)?;
+    let kept: Vec<[usize; 3]> = all.iter().copied().filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]).collect();
+    let dropped = all.len() - kept.len();
+    if dropped == 0 {
+        return Ok((merged, kept, 0));
+    }
+    if kept.is_empty() {
+        return Err(SurfaceError::Empty);
+    }
+    let mut index = vec![usize::MAX; merged.len()];
+    let mut out = Vec::new();
+    let tris = kept
+        .iter()
+        .map(|t| {
+            t.map(|v| {
+                if index[v] == usize::MAX {
+                    index[v] = out.len();
+                    out.push(merged[v]);
+                }
+                index[v]
+            })
+        })
+        .collect();
+    Ok((out, tris, dropped))
+}
+
 /// Merges vertices with exactly equal coordinates (-0 and 0 alike) and drops unused ones.
-fn weld(points: Vec<[f64; 3]>, tris: Vec<[usize; 3]>) -> Result<(Vec<DVec3>, Vec<[usize; 3]>), SurfaceError> {
+fn weld_exact(points: Vec<[f64; 3]>, tris: Vec<[usize; 3]>) -> Result<(Vec<DVec3>, Vec<[usize; 3]>), SurfaceError> {
     if tris.is_empty() {
         return Err(SurfaceError::Empty);
     }
