@@ -388,3 +388,28 @@ fn a_shell_one_size_thick_ends() {
         Err(e) => panic!("neither a mesh nor the thickness named: {e}"),
     }
 }
+
+/// The inward-face count of the report: 0 on a meshed sphere, every face on the same mesh
+/// turned inside out (the normal against grad phi at the centroid and at all three corners),
+/// and 0 on a box's faces beside its edges (a face a fraction of a degree past the right angle
+/// whose centroid lies nearer the other side's plane is not inward).
+#[test]
+fn inward_faces_are_counted() {
+    use trussmesh::surface::SizeField;
+    use trussmesh::topology::TriMesh;
+    let ball = |p: DVec3| p.length() - 1.0;
+    let out = mesh_surface(&ball, &SurfaceOptions::uniform(0.3, [-1.2; 3], [1.2; 3])).expect("sphere");
+    let size = SizeField::Uniform(0.3);
+    let q = SurfaceQuality::measure(&out.mesh, &ball, &size);
+    let a = out.mesh.to_arrays();
+    let turned: Vec<[usize; 3]> = a.cells.iter().map(|t| [t[0], t[2], t[1]]).collect();
+    let (inside_out, _) = TriMesh::from_arrays(&a.points, &turned).expect("the same surface, turned");
+    let r = SurfaceQuality::measure(&inside_out, &ball, &size);
+    println!("sphere: {} faces, {} inward; turned: {} inward", q.triangles, q.inward_faces, r.inward_faces);
+    assert_eq!(q.inward_faces, 0);
+    assert_eq!(r.inward_faces, r.triangles);
+    let cube = |p: DVec3| p.x.abs().max(p.y.abs()).max(p.z.abs()) - 0.7;
+    let c = mesh_surface(&cube, &SurfaceOptions::uniform(0.15, [-1.0; 3], [1.0; 3])).expect("box");
+    println!("box: {} faces, {} inward", c.report.quality.triangles, c.report.quality.inward_faces);
+    assert_eq!(c.report.quality.inward_faces, 0);
+}

@@ -21,8 +21,8 @@ pub struct SurfaceQuality {
     pub euler: i64,
     /// The engine's topology check passed and there is no boundary edge.
     pub closed_manifold: bool,
-    /// Triangles whose normal points against grad phi at their centroid (0 when consistently
-    /// oriented outward).
+    /// Triangles whose normal points against grad phi at their centroid and at all three
+    /// corners (0 when consistently oriented outward).
     pub inward_faces: usize,
     /// Largest |phi| / |grad phi| at a vertex, divided by the smallest target size.
     pub vertex_residual: f64,
@@ -71,7 +71,10 @@ impl SurfaceQuality {
             let dev = residual(phi, cen) / size.at(cen);
             cmax = cmax.max(dev);
             csum += dev;
-            if orient3d_dir(a, b, c, phi.gradient(cen)) != Sign::Positive {
+            // Against grad phi at the centroid and at all three corners: beside a sharp edge a
+            // face whose centroid lies nearer the other side's plane (a fraction of a degree
+            // past the right angle there) is against grad phi at its centroid only.
+            if [cen, a, b, c].into_iter().all(|p| orient3d_dir(a, b, c, phi.gradient(p)) != Sign::Positive) {
                 inward += 1;
             }
         }
