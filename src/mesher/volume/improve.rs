@@ -244,7 +244,7 @@ pub(super) fn clear_flat_boundary_tets(ctx: &mut Ctx, m: &mut TetMesh) -> Result
             }
             let tx = *m.tet(t);
             if tx.adj.iter().filter(|a| a.is_none()).count() == 3 {
-                // The cap's apex: the vertex of its one interior face's opposite corner.
+                // The cap's apex: the vertex opposite its one interior face.
                 if let Some(i) = tx.adj.iter().position(|a| a.is_some()) {
                     let v = tx.v[i];
                     if m.tag(v) == VertexTag::Fixed && m.vertex_tets(v).len() == 1 {
