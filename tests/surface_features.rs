@@ -153,6 +153,23 @@ fn l_prism() -> Shape {
     }
 }
 
+/// The unit sphere and a sphere of radius 0.7 at z = 1.2 combined by `op`: their union (a
+/// concave circular edge), intersection (a lens, convex) or difference (a dent, convex at the
+/// rim), all with the circle where the two spheres meet as their one feature curve.
+fn spheres(name: &'static str, op: fn(f64, f64) -> f64) -> Shape {
+    let (c, r2) = (DVec3::new(0.0, 0.0, 1.2), 0.7);
+    // The spheres meet at z0 where 1 - z0^2 = r2^2 - (z0 - 1.2)^2.
+    let z0 = (1.0 - r2 * r2 + c.z * c.z) / (2.0 * c.z);
+    Shape {
+        name,
+        phi: Box::new(move |p: DVec3| op(p.length() - 1.0, (p - c).length() - r2)),
+        bbox: [DVec3::new(-1.3, -1.3, -1.3), DVec3::new(1.3, 1.3, 2.2)],
+        curves: vec![Curve::Circle(DVec3::new(0.0, 0.0, z0), (1.0 - z0 * z0).sqrt())],
+        corners: Vec::new(),
+        chains: 1,
+    }
+}
+
 /// What one output shows.
 struct Measured {
     vertices: usize,
@@ -322,6 +339,26 @@ fn cube_keeps_edges_and_corners() {
 fn sharp_features_are_kept() {
     check(vec![rotated_box()], &[0.2]);
     check(vec![cylinder(), l_prism()], &[0.2, 0.1]);
+}
+
+/// Spheres combined by min, max and max(a, -b): curved edges, concave and convex, found from
+/// phi alone. (The edge construction sampled both tangent planes on one sphere near the
+/// concave circle and cut a few edges beside it; the islands that left crossed the surface
+/// over itself, and every such surface came out rounded.)
+#[test]
+fn unions_and_differences_of_spheres_keep_their_circle() {
+    check(vec![spheres("sphere union", |a, b| a.min(b)), spheres("sphere dent", |a, b| a.max(-b))], &[0.1, 0.05]);
+    check(vec![spheres("sphere lens", |a, b| a.max(b))], &[0.1]);
+}
+
+/// The lens at the finer size.
+#[test]
+#[ignore = "not reached: the lens (a convex circular edge, 88 degrees) at h0 0.05: held from the marching start \
+            it crosses itself, cut into the smooth mesh it leaves a flat triangle, so the result is the smooth mesh \
+            and its report warns that it rounds the edge (the same lens along the x axis, as a command-line \
+            expression, holds its edge at 37.6 degrees)"]
+fn the_sphere_lens_at_h0_005_keeps_its_circle() {
+    check(vec![spheres("sphere lens", |a, b| a.max(b))], &[0.05]);
 }
 
 /// The rotated box at the finer size.

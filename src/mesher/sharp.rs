@@ -72,7 +72,11 @@ pub(crate) fn crease_step(
         for dir in [across, -across] {
             if let Some(q) = g.project(x + dir * delta)? {
                 let m = g.gradient(q - n * (1e-3 * delta)).normalize_or_zero();
-                if m.length_squared() > 0.5 && best.is_none_or(|(c, _, _)| m.dot(n) > c) {
+                // A sample of this face, not of the other: nearer n than `other`. Two samples
+                // of one face meet nowhere near the edge (near a curved concave edge they put
+                // the edge point back on the face it started on).
+                let here = m.dot(n) > m.dot(other);
+                if m.length_squared() > 0.5 && here && best.is_none_or(|(c, _, _)| m.dot(n) > c) {
                     best = Some((m.dot(n), q, m));
                 }
             }

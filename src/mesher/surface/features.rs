@@ -134,11 +134,16 @@ pub(super) fn onto_crease(
     let g = Phi { phi, tol };
     let (mut x, mut a, mut b) = (x, n1, n2);
     let mut delta = 0.1 * s;
+    // The finest samples: a ten-thousandth of s, and clear of the curve by several steps of a
+    // finite-difference gradient (a stencil across the edge mixes the faces' normals and
+    // biased the point along a sphere's concave rim by 5e-7).
+    let finest = (1e-4 * s).max(8.0 * crate::geometry::fd_step(x.abs().max_element()));
     let mut done = None;
     for _ in 0..CURVE_STEPS {
         let mut step = sharp::crease_step(&g, x, a, b, delta)?;
-        // Far from the curve both samples may fall on one face: wider ones first.
-        while step.is_none() && done.is_none() && delta < s {
+        // Farther from the curve than delta both samples fall on one face: wider ones then
+        // (at the start, or when a step with fine samples lands beside the curve).
+        while step.is_none() && delta < s {
             delta *= 3.0;
             step = sharp::crease_step(&g, x, a, b, delta)?;
         }
@@ -146,11 +151,27 @@ pub(super) fn onto_crease(
         let d = y.distance(x);
         (x, a, b) = (y, m1, m2);
         done = Some((x, (a + b).normalize_or_zero()));
-        if d <= 1e-12 * s || (delta <= 1e-4 * s && d <= tol) {
+        if d <= 1e-12 * s || (delta <= finest && d <= tol) {
             break;
         }
         if d < 0.5 * delta {
-            delta = (0.1 * delta).max(1e-4 * s);
+            delta = (0.1 * delta).max(finest);
+        }
+    }
+    // The tangent planes are taken delta away from the curve, so the point is off by about
+    // curvature x delta^2 on a curved face: from the points at the finest samples and at twice
+    // them, the error's square law gives the limit (Richardson), kept when phi still holds it.
+    if let Some((x0, dir)) = done {
+        if delta <= finest {
+            let at = |d: f64| -> Result<Option<DVec3>, Error> { Ok(sharp::crease_step(&g, x0, a, b, d)?.map(|r| r.0)) };
+            if let (Some(y1), Some(y2)) = (at(finest)?, at(2.0 * finest)?) {
+                let y = (4.0 * y1 - y2) / 3.0;
+                if let Some(z) = g.project(y)? {
+                    if z.distance(y1) <= finest {
+                        done = Some((z, dir));
+                    }
+                }
+            }
         }
     }
     Ok(done)
