@@ -389,6 +389,47 @@ fn a_shell_one_size_thick_ends() {
     }
 }
 
+/// The unit ball with a hole of radius 0.3 through it (no blend): its rims are sharp edges with
+/// a 73-degree wedge. Where the wedge's two faces come within a few sizes of each other near the
+/// rim, the refusal for thin sheets used to name a "shell or gap" 0.0106 thick at h0 0.05 (exit
+/// 2) for a solid that is nowhere thin; only sheets that face each other count now. At h0 0.1
+/// the surface meshes with its rims held.
+fn ball_with_a_hole(p: DVec3) -> f64 {
+    (p.length() - 1.0).max(0.3 - (p.x * p.x + p.y * p.y).sqrt())
+}
+
+#[test]
+fn a_sharp_wedge_is_no_thin_sheet() {
+    let out = mesh_surface(&ball_with_a_hole, &uniform(0.1, bbox(1.2))).expect("the ball with a hole at h0 0.1");
+    let q = &out.report.quality;
+    println!(
+        "ball with a hole, h0 0.1: {} vertices, Euler {}, min angle {:.1}, notes {:?}",
+        q.vertices, q.euler, q.min_angle, out.report.notes
+    );
+    assert!(q.closed_manifold && q.euler == 0, "a torus: Euler {}", q.euler);
+    assert!(q.min_angle >= 30.0, "min angle {}", q.min_angle);
+    match mesh_surface(&ball_with_a_hole, &uniform(0.05, bbox(1.2))) {
+        Ok(out) => assert_eq!(out.report.quality.euler, 0),
+        Err(e) => {
+            println!("ball with a hole, h0 0.05: {e}");
+            assert!(!matches!(e, Error::BadSize(_)), "a thin sheet named where there is none: {e}");
+        }
+    }
+}
+
+/// The same ball at h0 0.05.
+#[test]
+#[ignore = "not reached: at h0 0.05 holding the rims crosses the surface over itself (cylinder-wall \
+            triangles beside the rim turn over where a rim vertex sits between two others that the sphere's \
+            side joins directly), and the smooth mesh, rounding the 73-degree wedge, crosses itself too: \
+            the run ends in an internal error"]
+fn a_ball_with_a_hole_at_h0_005_holds_its_rims() {
+    let out = mesh_surface(&ball_with_a_hole, &uniform(0.05, bbox(1.2))).expect("the ball with a hole at h0 0.05");
+    let q = &out.report.quality;
+    assert!(out.report.notes.is_empty(), "{:?}", out.report.notes);
+    assert!(q.closed_manifold && q.euler == 0 && q.min_angle >= 30.0, "Euler {}, min angle {}", q.euler, q.min_angle);
+}
+
 /// The inward-face count of the report: 0 on a meshed sphere, every face on the same mesh
 /// turned inside out (the normal against grad phi at the centroid and at all three corners),
 /// and 0 on a box's faces beside its edges (a face a fraction of a degree past the right angle

@@ -134,9 +134,13 @@ const THICKNESS_SAMPLES: [f64; 14] = [0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 
 /// at 0.25 to 32 times `h` up to `reach`, and the first sample on the other side
 /// (beyond `tol` in distance, as far as |grad phi| tells) brackets the crossing, found by
 /// bisection; the smallest such distance is returned. A shell thinner than a level's edges, or
-/// two sheets closer than that, let a node's projection land on the wrong sheet. `None` when
-/// no sample changes side.
-pub fn thinnest(phi: &dyn Implicit3, on: &[DVec3], h: f64, reach: f64, tol: f64) -> Option<Thinnest> {
+/// two sheets closer than that, let a node's projection land on the wrong sheet. With `facing`,
+/// only sheets that face each other count (the normal where the ray crosses within
+/// `sharp::SHARP_DEG` of the opposite of the normal it left along): across the wedge of a
+/// sharp edge the ray meets the other face at a slant, and that face is no thin sheet. `None`
+/// when no sample changes side.
+pub fn thinnest(phi: &dyn Implicit3, on: &[DVec3], h: f64, reach: f64, tol: f64, facing: bool) -> Option<Thinnest> {
+    let cos_facing = crate::mesher::sharp::SHARP_DEG.to_radians().cos();
     use rayon::prelude::*;
     on.par_iter()
         .filter_map(|&p| {
@@ -172,7 +176,8 @@ pub fn thinnest(phi: &dyn Implicit3, on: &[DVec3], h: f64, reach: f64, tol: f64)
                                 lo = mid;
                             }
                         }
-                        if best.is_none_or(|b| hi < b) {
+                        let faces = !facing || phi.gradient(p + side * hi * n).normalize_or_zero().dot(n) < -cos_facing;
+                        if faces && best.is_none_or(|b| hi < b) {
                             best = Some(hi);
                         }
                         break;

@@ -94,12 +94,12 @@ fn held_runaway(start: usize, now: usize) -> Error {
     Error::internal(format!("holding sharp features made the surface grow from {start} to {now} vertices"))
 }
 
-/// Sheets closer than two edges: the input asks for a size it cannot be meshed at, and the
-/// error says so with the thickness and where; `otherwise` when no such place is found near
-/// the nodes of `m`.
+/// Sheets facing each other closer than two edges: the input asks for a size it cannot be
+/// meshed at, and the error says so with the thickness and where; `otherwise` when no such
+/// place is found near the nodes of `m` (the two faces of a sharp wedge are no thin sheet).
 fn too_thin_or(phi: &dyn Implicit3, m: &TriMesh<DVec3>, hmin: f64, tol: f64, otherwise: Error) -> Error {
     let on: Vec<DVec3> = m.vertex_ids().map(|v| m.pos(v)).collect();
-    match geom::thinnest(phi, &on, hmin, start::COARSE_ACROSS * hmin, tol) {
+    match geom::thinnest(phi, &on, hmin, start::COARSE_ACROSS * hmin, tol, true) {
         Some(t) => Error::BadSize(format!(
             "phi = 0 comes back within {:.3e} of itself near ({:.4}, {:.4}, {:.4}): a shell or gap thinner than \
              two edges of the size {hmin:.3e}, across which nodes land on the wrong sheet; \
