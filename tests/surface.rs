@@ -390,14 +390,15 @@ fn a_shell_one_size_thick_ends() {
 }
 
 /// The unit ball with a hole of radius 0.3 through it (no blend): its rims are sharp edges with
-/// a 73-degree wedge. Where the wedge's two faces come within a few sizes of each other near the
-/// rim, the refusal for thin sheets used to name a "shell or gap" 0.0106 thick at h0 0.05 (exit
-/// 2) for a solid that is nowhere thin; only sheets that face each other count now. At h0 0.1
-/// the surface meshes with its rims held.
+/// a 73-degree wedge.
 fn ball_with_a_hole(p: DVec3) -> f64 {
     (p.length() - 1.0).max(0.3 - (p.x * p.x + p.y * p.y).sqrt())
 }
 
+/// Where the wedge's two faces come within a few sizes of each other near the rim, the refusal
+/// for thin sheets used to name a "shell or gap" 0.0106 thick at h0 0.05 (exit 2) for a solid
+/// that is nowhere thin; only sheets that face each other count now. At h0 0.1 the surface
+/// meshes with its rims held.
 #[test]
 fn a_sharp_wedge_is_no_thin_sheet() {
     let out = mesh_surface(&ball_with_a_hole, &uniform(0.1, bbox(1.2))).expect("the ball with a hole at h0 0.1");
