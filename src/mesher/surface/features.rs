@@ -32,7 +32,7 @@ const GIVEN_REACH: f64 = 0.5;
 const GIVEN_SAG: f64 = 0.1;
 /// A vertex within this many edge lengths of a given curve is on it.
 const ON_CURVE: f64 = 1e-9;
-/// Vertices tried, nearest first, for each given corner.
+/// Vertices tried, nearest first, for each corner.
 const CORNER_TRIES: usize = 12;
 /// Faces of another patch beyond which a labelled region is taken to have leaked across a
 /// curve (strays near a corner are a few).
@@ -40,6 +40,8 @@ const LEAK_FACES: usize = 4;
 /// A pin farther than this many edge lengths from the nearest curve edge is not on the cut
 /// curve (see [`hold_pins`]).
 const PIN_REACH: f64 = 0.5;
+/// A triangle of lower quality than this is flat: its normal says nothing of the patch it is on.
+const FLAT_Q: f64 = 0.05;
 /// Steps of the projection onto a feature curve.
 const CURVE_STEPS: usize = 8;
 
@@ -294,6 +296,147 @@ fn place(m: &mut TriMesh<DVec3>, v: VertexId, p: DVec3, g: DVec3) -> bool {
     move_if_no_fold_g(m, v, p, g)
 }
 
+/// Fixes a vertex on the corner `c`: of the CORNER_TRIES vertices nearest it that can move
+/// there without folding (fold test along `dir`), the nearest, or with `best` the one whose
+/// triangles keep the best worst quality there. That vertex, or `None`. The nearest alone often
+/// cannot move: a marching start's vertex 0.6 h from a rotated box's corner folded its fan. For
+/// corners found from phi the next nearest that can may stretch its fan (an L prism's corner
+/// lost 3.6 degrees of min angle), hence `best`; for given corners, cut into an even mesh, the
+/// nearest that can is kept (`best` there left a turned box with an inward triangle).
+fn fix_corner(m: &mut TriMesh<DVec3>, c: DVec3, dir: DVec3, best: bool) -> Option<VertexId> {
+    let mut near: Vec<(f64, VertexId)> = m.vertex_ids().map(|v| (m.pos(v).distance(c), v)).collect();
+    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut chosen: Option<(f64, VertexId)> = None;
+    for &(_, v) in near.iter().take(CORNER_TRIES) {
+        let p = m.pos(v);
+        if m.tag(v) == VertexTag::Fixed || !place(m, v, c, dir) {
+            continue;
+        }
+        let q = m
+            .vertex_faces(v)
+            .iter()
+            .map(|&f| crate::quality::triangle_q3(m.face_vertices(f).map(|w| m.pos(w))))
+            .fold(f64::INFINITY, f64::min);
+        m.set_pos_unchecked(v, p);
+        if chosen.is_none_or(|b| q > b.0) {
+            chosen = Some((q, v));
+        }
+        if !best {
+            break;
+        }
+    }
+    let (_, v) = chosen?;
+    m.set_pos_unchecked(v, c);
+    m.set_tag(v, VertexTag::Fixed);
+    Some(v)
+}
+
+/// Angle in degrees within which a vertex of a corner's fan already lies along a curve leaving
+/// the corner, seen along the corner's mean normal.
+const CURVE_START_DEG: f64 = 20.0;
+/// How far (as a fraction of the distance gone) phi may leave zero along a curve leaving a
+/// corner: a curve of radius three lengths sags by a sixth of the length.
+const CURVE_OFF: f64 = 0.2;
+/// Cosine of the angle within which a vertex's normal is a face's.
+const SAME_FACE_COS: f64 = 0.94;
+
+/// Starts the three feature curves out of the corner `v` (faces of normals `n`, mean outward
+/// normal `dir`, curves about `h` long between vertices): each leaves along the cross product of
+/// its two faces' normals, on the side where phi stays zero, and crosses one triangle of the
+/// fan (seen along `dir`). Unless that triangle's far edge joins a vertex of each of the two
+/// faces (`normal`: the vertices' normals; the cut passes split such an edge), the fan vertex
+/// already along the curve moves onto it, or else the far edge splits where the curve crosses
+/// it. Without this a fan triangle
+/// could bridge a face's corner (seen on a rotated box: one triangle from the corner to a point
+/// of one edge and a point of the next face), and no edge followed the curve out of it.
+#[allow(clippy::too_many_arguments)]
+fn start_curves(
+    m: &mut TriMesh<DVec3>,
+    phi: &dyn Implicit3,
+    v: VertexId,
+    n: [DVec3; 3],
+    dir: DVec3,
+    h: f64,
+    tol: f64,
+    normal: &SecondaryMap<VertexId, DVec3>,
+    on_edge: &mut SecondaryMap<VertexId, (DVec3, DVec3)>,
+) -> Result<(), Error> {
+    // Three faces, each turned from the others: two samples of one curved face (a circular
+    // rim's cylinder side taken for two) start no curve.
+    let faces_apart = distinct(n[0], n[1]) && distinct(n[1], n[2]) && distinct(n[2], n[0]);
+    if dir.length_squared() < 0.5 || !faces_apart {
+        return Ok(());
+    }
+    let c = m.pos(v);
+    let u1 = dir.any_orthonormal_vector();
+    let u2 = dir.cross(u1);
+    let angle = |p: DVec3| (p - c).dot(u2).atan2((p - c).dot(u1));
+    let wrap = |a: f64| {
+        let t = std::f64::consts::TAU;
+        a - t * ((a + std::f64::consts::PI) / t).floor()
+    };
+    let near_deg = CURVE_START_DEG.to_radians();
+    for (i, j) in [(0, 1), (1, 2), (2, 0)] {
+        let Some(t0) = n[i].cross(n[j]).try_normalize() else { continue };
+        let probe = 0.3 * h;
+        let (fwd, back) = (phi.value(c + t0 * probe).abs(), phi.value(c - t0 * probe).abs());
+        // Along a curve phi stays zero but for the curve's sag: a direction off the surface on
+        // both sides is no curve (normals mixed across an edge give such).
+        if fwd.min(back) > CURVE_OFF * probe {
+            continue;
+        }
+        let t = if fwd <= back { t0 } else { -t0 };
+        let at = angle(c + t);
+        // The fan triangle (v, a, b), counter-clockwise about dir, whose angle holds t.
+        let mut hit = None;
+        for hh in m.outgoing(v) {
+            if m.face_of(hh).is_none() {
+                continue;
+            }
+            let ab = m.next(hh);
+            let (a, b) = (m.origin(ab), m.dest(ab));
+            let (ra, rb) = (wrap(angle(m.pos(a)) - at), wrap(angle(m.pos(b)) - at));
+            if ra <= 0.0 && rb > 0.0 && rb - ra < std::f64::consts::PI {
+                hit = Some((ab, a, b, ra, rb));
+                break;
+            }
+        }
+        let Some((ab, a, b, ra, rb)) = hit else { continue };
+        // An edge from one face's vertex to the other's straddles the curve: the cut passes
+        // split it where the planes meet.
+        let on = |x: VertexId, k: usize| normal.get(x).is_some_and(|&q| q.dot(n[k]) > SAME_FACE_COS);
+        if on(a, i) && on(b, j) || on(a, j) && on(b, i) {
+            continue;
+        }
+        // A fan vertex already along the curve: it moves onto it (or is on it already).
+        let close = if -ra <= rb { (a, -ra) } else { (b, rb) };
+        if close.1 < near_deg {
+            let w = close.0;
+            if m.tag(w) == VertexTag::Interior {
+                let len = m.pos(w).distance(c);
+                if let Some((y, d)) = onto_crease(phi, m.pos(w), n[i], n[j], len, tol)? {
+                    if place(m, w, y, d) {
+                        m.set_tag(w, VertexTag::InternalBoundary { curve: 0 });
+                        on_edge.insert(w, (n[i], n[j]));
+                    }
+                }
+            }
+            continue;
+        }
+        // Else the opposite edge splits where the curve crosses it.
+        let (pa, pb) = (m.pos(a), m.pos(b));
+        let x = project(phi, pa + (pb - pa) * (-ra / (rb - ra)), tol)?;
+        let len = pa.distance(pb);
+        let Some((y, d)) = onto_crease(phi, x, n[i], n[j], len, tol)? else { continue };
+        let Ok(w) = m.split_edge(ab, x) else { continue };
+        if place(m, w, y, d) {
+            m.set_tag(w, VertexTag::InternalBoundary { curve: 0 });
+            on_edge.insert(w, (n[i], n[j]));
+        }
+    }
+    Ok(())
+}
+
 /// Cuts the start mesh `m` (nodes on phi = 0, edges about `h`) along the sharp edges of phi and
 /// labels and tags it (see the module). Returns false, leaving `m` untouched, when phi shows no
 /// sharp edge.
@@ -327,19 +470,18 @@ pub(super) fn imprint(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, h: f64, tol: 
     }
     // Corners first: the nearest vertex moves onto each and is fixed.
     let limits = |_: DVec3| Ok((sharp::REACH * h, sharp::TOL * h));
-    let mut corners: Vec<DVec3> = Vec::new();
-    for c in sharp::corner_points(&g, &found, h, &limits)? {
-        if corners.iter().all(|k| k.distance(c) >= 0.5 * h) {
-            corners.push(c);
+    let mut corners: Vec<sharp::Corner> = Vec::new();
+    for (c, n) in sharp::corner_points(&g, &found, h, &limits)? {
+        if corners.iter().all(|k| k.0.distance(c) >= 0.5 * h) {
+            let finest = (1e-4 * h).max(8.0 * crate::geometry::fd_step(c.abs().max_element()));
+            corners.push(sharp::refine_corner(&g, c, n, h, finest)?);
         }
     }
-    for &c in &corners {
-        let near = m.vertex_ids().min_by(|&a, &b| m.pos(a).distance(c).total_cmp(&m.pos(b).distance(c)));
-        let Some(v) = near else { continue };
+    for &(c, n) in &corners {
         let dir = probes(phi, c, eps).iter().sum::<DVec3>().normalize_or_zero();
-        if m.tag(v) != VertexTag::Fixed && place(m, v, c, dir) {
-            m.set_tag(v, VertexTag::Fixed);
+        if let Some(v) = fix_corner(m, c, dir, true) {
             on_edge.remove(v);
+            start_curves(m, phi, v, n, dir, h, tol, &normal, &mut on_edge)?;
         }
     }
     for (v, _) in on_edge.iter() {
@@ -381,7 +523,12 @@ pub(super) fn imprint(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, h: f64, tol: 
         }
     }
     unflatten(m);
+    // A placed corner stays one, whatever labels end up around it.
+    let placed: Vec<VertexId> = m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).collect();
     label(m, phi, eps);
+    for v in placed {
+        m.set_tag(v, VertexTag::Fixed);
+    }
     Ok(true)
 }
 
@@ -401,7 +548,7 @@ fn unflatten(m: &mut TriMesh<DVec3>) {
                 continue;
             }
             let ps = vs.map(|v| m.pos(v));
-            if crate::quality::triangle_q3(ps) > 0.05 {
+            if crate::quality::triangle_q3(ps) > FLAT_Q {
                 continue;
             }
             let longest = hs.into_iter().max_by(|&a, &b| {
@@ -511,10 +658,47 @@ fn label(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, eps: f64) {
         }
         next += 1;
     }
+    merge_flat_islands(m, &mut lab);
     for &f in &faces {
         m.set_label(f, lab[f].min(65_535));
     }
     tag_by_labels(m);
+}
+
+/// Gives each patch of at most LEAK_FACES flat triangles (a sliver left along a cut edge, whose
+/// normal turned it into a patch of its own) the label it shares the longest edges with; the
+/// curve then runs along the sliver's sides, which the engine collapses. Left alone, such an
+/// island made its vertices spurious corners (a rotated box's edge held three).
+fn merge_flat_islands(m: &TriMesh<DVec3>, lab: &mut SecondaryMap<FaceId, u32>) {
+    let mut members: std::collections::BTreeMap<u32, Vec<FaceId>> = std::collections::BTreeMap::new();
+    for (f, &l) in lab.iter() {
+        members.entry(l).or_default().push(f);
+    }
+    let flat = |f: FaceId| crate::quality::triangle_q3(m.face_vertices(f).map(|v| m.pos(v))) < FLAT_Q;
+    for (l, fs) in members {
+        if fs.len() > LEAK_FACES || !fs.iter().all(|&f| flat(f)) {
+            continue;
+        }
+        let mut shared: SmallVec<[(u32, f64); 4]> = SmallVec::new();
+        for &f in &fs {
+            for h in m.face_half_edges(f) {
+                let Some(g) = m.face_of(m.twin(h)) else { continue };
+                let k = lab[g];
+                if k == l {
+                    continue;
+                }
+                let len = m.pos(m.origin(h)).distance(m.pos(m.dest(h)));
+                match shared.iter_mut().find(|x| x.0 == k) {
+                    Some(x) => x.1 += len,
+                    None => shared.push((k, len)),
+                }
+            }
+        }
+        let Some(&(to, _)) = shared.iter().max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0))) else { continue };
+        for &f in &fs {
+            lab.insert(f, to);
+        }
+    }
 }
 
 /// Tags every vertex by the labels of its triangles: one is free, two a curve vertex, three or
@@ -561,17 +745,8 @@ fn imprint_given(m: &mut TriMesh<DVec3>, phi: &dyn Implicit3, c: &dyn Creases) -
             }
         }
     }
-    // Each corner takes the nearest of the vertices that can move onto it without folding.
     for &k in c.corners() {
-        let mut near: Vec<(f64, VertexId)> = m.vertex_ids().map(|v| (m.pos(v).distance(k), v)).collect();
-        near.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let dir = phi.gradient(k).normalize_or_zero();
-        for &(_, v) in near.iter().take(CORNER_TRIES) {
-            if m.tag(v) != VertexTag::Fixed && place(m, v, k, dir) {
-                m.set_tag(v, VertexTag::Fixed);
-                break;
-            }
-        }
+        fix_corner(m, k, phi.gradient(k).normalize_or_zero(), false);
     }
     for _ in 0..CUT_PASSES {
         let mut cuts = Vec::new();

@@ -99,7 +99,8 @@ pub(super) fn crease_points(
     let corners = sharp::corner_points(ctx, &found, gap, &limits)?;
     let n_corners = corners.len();
     let mut kept: Vec<DVec3> = Vec::new();
-    let candidates = corners.into_iter().map(|p| (p, None)).chain(found.into_iter().map(|f| (f.0, Some((f.1, f.2)))));
+    let candidates =
+        corners.into_iter().map(|(p, _)| (p, None)).chain(found.into_iter().map(|f| (f.0, Some((f.1, f.2)))));
     for (k, (p, faces)) in candidates.enumerate() {
         let h = if uniform { 1.0 } else { ctx.h(p)? };
         let s = sharp::SPACING * opts.h0 * h;
