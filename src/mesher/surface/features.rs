@@ -346,9 +346,9 @@ const SAME_FACE_COS: f64 = 0.94;
 /// fan (seen along `dir`). Unless that triangle's far edge joins a vertex of each of the two
 /// faces (`normal`: the vertices' normals; the cut passes split such an edge), the fan vertex
 /// already along the curve moves onto it, or else the far edge splits where the curve crosses
-/// it. Without this a fan triangle
-/// could bridge a face's corner (seen on a rotated box: one triangle from the corner to a point
-/// of one edge and a point of the next face), and no edge followed the curve out of it.
+/// it. Without this a fan triangle could bridge a face's corner (seen on a rotated box: one
+/// triangle from the corner to a point of one edge and a point of the next face), and no edge
+/// followed the curve out of it.
 #[allow(clippy::too_many_arguments)]
 fn start_curves(
     m: &mut TriMesh<DVec3>,
