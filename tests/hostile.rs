@@ -77,6 +77,30 @@ fn cases() -> Vec<Case> {
         "three specks r = 0.03",
         "mesh --domain 'min(min(dcircle(x,y,0,0,0.5),dcircle(x,y,0.8,0.8,0.03)),min(dcircle(x,y,-0.8,0.8,0.03),dcircle(x,y,0.8,-0.8,0.03)))' --h0 0.1 --bbox -1,-1,1,1",
     ));
+    // Sizes that grow past narrow gaps between holes and walls (elements as wide as the gap):
+    // a node once crossed from one piece of the start to another, and the run ended in an
+    // internal error.
+    for (dom, size, h0, label) in [
+        (
+            "max(drectangle(x,y,-1,1,-1,1),-min(min(dcircle(x,y,-0.5,-0.5,0.2),dcircle(x,y,0.5,0.5,0.2)),dcircle(x,y,0.5,-0.5,0.1)))",
+            "0.02+0.3*abs(sqrt(x^2+y^2)-0.3)",
+            "0.02",
+            "three holes, size 0.02 to 0.32",
+        ),
+        ("max(drectangle(x,y,-1,1,-1,1),-dcircle(x,y,0.6,0,0.3))", "1+20*(x+1)^2", "0.01", "hole by a wall, size ratio 81"),
+        (
+            "max(dcircle(x,y,0,0,1),-min(dcircle(x,y,0.55,0,0.3),dcircle(x,y,-0.55,0,0.3)))",
+            "1+10*abs(y)",
+            "0.02",
+            "two holes in a disk, size ratio 11",
+        ),
+    ] {
+        v.push(case(
+            "graded past narrow gaps",
+            label,
+            &format!("mesh --domain '{dom}' --size '{size}' --h0 {h0} --bbox -1,-1,1,1"),
+        ));
+    }
     // Boxes that do not contain the domain.
     for (dom, label) in [
         ("-1", "d = -1 everywhere"),

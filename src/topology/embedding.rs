@@ -129,6 +129,60 @@ pub(crate) fn planar(m: &TriMesh<DVec2>) -> Result<(), InvariantViolation> {
     }
 }
 
+/// The boundary edges a moved vertex of a planar mesh in several pieces must be tested against
+/// besides its own loop (see [`boundary_clear`]): every boundary edge, as its two vertices, or
+/// none when the mesh is connected. In a connected mesh the relocation's own-loop test is exact
+/// (the grown part lies in the complement component that loop borders, see `fan`); a mesh in
+/// pieces (a start that a narrow gap cut apart) can lay one piece over another.
+pub(crate) fn boundary_edges_if_split(m: &TriMesh<DVec2>) -> Vec<[VertexId; 2]> {
+    let Some(first) = m.vertex_ids().next() else { return Vec::new() };
+    let mut seen: slotmap::SecondaryMap<VertexId, ()> = slotmap::SecondaryMap::new();
+    seen.insert(first, ());
+    let mut stack = vec![first];
+    while let Some(v) = stack.pop() {
+        for h in m.outgoing(v) {
+            let w = m.dest(h);
+            if seen.insert(w, ()).is_none() {
+                stack.push(w);
+            }
+        }
+    }
+    if seen.len() == m.num_vertices() {
+        return Vec::new();
+    }
+    m.half_edge_ids().filter(|&h| m.face_of(h).is_none()).map(|h| [m.origin(h), m.dest(h)]).collect()
+}
+
+/// Whether the boundary edges at `v` meet none of `edges` (from [`boundary_edges_if_split`]) that they
+/// share no vertex with. A relocation checks the moved fans and `v`'s own boundary loop; a
+/// mesh in several pieces (or with a hole a node can reach) needs this too for the embedding.
+/// Exact; a box test spares the predicates on almost every edge.
+pub(crate) fn boundary_clear(m: &TriMesh<DVec2>, v: VertexId, edges: &[[VertexId; 2]]) -> bool {
+    if edges.is_empty() || !m.is_boundary_vertex(v) {
+        return true;
+    }
+    let pv = m.pos(v);
+    let ends: SmallVec<[VertexId; 2]> =
+        m.outgoing(v).into_iter().filter(|&h| m.is_boundary_edge(h)).map(|h| m.dest(h)).collect();
+    for &[a, b] in edges {
+        let (pa, pb) = (m.pos(a), m.pos(b));
+        for &w in &ends {
+            if a == v || b == v || a == w || b == w {
+                continue;
+            }
+            let pw = m.pos(w);
+            let apart = pa.x.max(pb.x) < pv.x.min(pw.x)
+                || pa.x.min(pb.x) > pv.x.max(pw.x)
+                || pa.y.max(pb.y) < pv.y.min(pw.y)
+                || pa.y.min(pb.y) > pv.y.max(pw.y);
+            if !apart && segments_meet(pv, pw, pa, pb) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
 /// The first pair of triangles (by index) of a soup that meet other than in shared corners.
 pub(crate) fn soup_intersection(points: &[DVec3], tris: &[[usize; 3]]) -> Option<(usize, usize)> {
     let boxes: Vec<Box3> = tris
@@ -369,6 +423,34 @@ mod tests {
     #[track_caller]
     fn broken(r: Result<(), InvariantViolation>) -> Invariant {
         r.expect_err("the fold must be detected").invariant
+    }
+
+    /// Two separate triangles: moving a corner of one into the other keeps every fan and its
+    /// own loop clear (the relocation allows it), but lays the pieces over each other. The
+    /// boundary test against the other piece refuses it; a connected mesh needs no list.
+    #[test]
+    fn a_piece_moved_over_another_is_caught() {
+        let p = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(0.0, 1.0),
+            DVec2::new(2.0, 0.0),
+            DVec2::new(3.0, 0.0),
+            DVec2::new(2.0, 1.0),
+        ];
+        let (mut m, ids) = TriMesh::from_arrays(&p, &[[0, 1, 2], [3, 4, 5]]).unwrap();
+        let walls = boundary_edges_if_split(&m);
+        assert_eq!(walls.len(), 6);
+        let over = DVec2::new(2.5, 0.2);
+        assert!(m.check_relocate(ids[1], over).is_ok(), "the relocation sees only its own loop");
+        m.set_pos_unchecked(ids[1], over);
+        assert!(!boundary_clear(&m, ids[1], &walls));
+        assert!(m.validate(Level::Geometry).is_err());
+        m.set_pos_unchecked(ids[1], DVec2::new(1.2, 0.1));
+        assert!(boundary_clear(&m, ids[1], &walls));
+        assert!(m.validate(Level::Geometry).is_ok());
+        let (one, _) = TriMesh::from_arrays(&p[..4], &[[0, 1, 2], [1, 3, 2]]).unwrap();
+        assert!(boundary_edges_if_split(&one).is_empty());
     }
 
     /// A vertex at the origin with a ring of 7 vertices that goes around it twice: each

@@ -92,14 +92,20 @@ pub(super) fn uncovered_notes(ctx: &Ctx, mesh: &TriMesh<DVec2>) -> Result<Vec<St
             }
         }
         let p = lo + DVec2::new((start % nx) as f64, (start / nx) as f64) * step;
+        // The element size there: a part narrower than it has no start node deep enough inside.
+        let local = opts.h0 * ctx.h(p)?;
+        let (what, advice) = if local > 1.5 * opts.h0 {
+            (format!("the local element size {local:.3}"), "lower the size there (--size) or h0 to mesh it")
+        } else {
+            (format!("the resolution h0 = {}", opts.h0), "lower h0 to mesh it")
+        };
         notes.push(format!(
             "a part of the domain at ({}, {}) ({count} sample{} at spacing {:.3}) is not meshed: it is \
-             below the resolution h0 = {} and was dropped; lower h0 to mesh it",
+             below {what} and was dropped; {advice}",
             p.x,
             p.y,
             if count == 1 { "" } else { "s" },
             step.x.max(step.y),
-            opts.h0
         ));
     }
     Ok(notes)

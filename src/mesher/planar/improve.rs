@@ -381,6 +381,7 @@ pub(super) fn relax(m: &mut TriMesh<DVec2>, g: &Geometry, seeds: &[VertexId], sc
             }
         }
     }
+    let walls = crate::topology::boundary_edges_if_split(m);
     let mut steps = Vec::with_capacity(nodes.len());
     for _ in 0..RELAX_ITERS {
         steps.clear();
@@ -403,11 +404,13 @@ pub(super) fn relax(m: &mut TriMesh<DVec2>, g: &Geometry, seeds: &[VertexId], sc
             }
             if on_boundary[k] {
                 match (g.project)(x)? {
-                    Some(q) => x = q,
-                    None => continue,
+                    // A projection that lands far from the step has jumped to another part of
+                    // the boundary (across a narrow gap, onto a hole).
+                    Some(q) if q.distance(old) <= 2.0 * x.distance(old) => x = q,
+                    _ => continue,
                 }
             }
-            let taken = backtrack(old, x, 2, |y| Ok::<bool, Error>(m.relocate(v, y).is_ok()))?;
+            let taken = backtrack(old, x, 2, |y| Ok::<bool, Error>(relocate_clear(m, v, y, &walls)))?;
             if let Some(y) = taken {
                 moved = moved.max(y.distance(old) / (scale * hs[v]));
             }
@@ -422,4 +425,20 @@ pub(super) fn relax(m: &mut TriMesh<DVec2>, g: &Geometry, seeds: &[VertexId], sc
     }
     m.legalize(stack);
     Ok(())
+}
+
+/// Moves `v` to `p` when the engine's relocation check passes and, for a boundary node, its
+/// new boundary edges meet none of `walls` (from [`crate::topology::boundary_edges_if_split`]:
+/// empty for a connected mesh, where the relocation's own-loop test is exact; every boundary
+/// edge for a mesh in pieces, which a node could lay over one another).
+pub(super) fn relocate_clear(m: &mut TriMesh<DVec2>, v: VertexId, p: DVec2, walls: &[[VertexId; 2]]) -> bool {
+    let old = m.pos(v);
+    if m.relocate(v, p).is_err() {
+        return false;
+    }
+    if !crate::topology::boundary_clear(m, v, walls) {
+        m.set_pos_unchecked(v, old);
+        return false;
+    }
+    true
 }

@@ -195,6 +195,7 @@ pub(super) fn polish_nodes(
     let budget = if whole.is_some() { f64::INFINITY } else { st.dev_with(0.0, 0.0) };
     let q_floor = whole.map_or_else(|| st.q.values().copied().fold(f64::INFINITY, f64::min), |w| w.qmin);
     let mut steps: SecondaryMap<VertexId, f64> = SecondaryMap::new();
+    let walls = crate::topology::boundary_edges_if_split(m);
     // Nodes whose last try failed or gained less than MOVE_GAIN, and whose neighbours have not
     // gained more since: a new try would do about as little.
     let mut idle: SecondaryMap<VertexId, ()> = SecondaryMap::new();
@@ -205,7 +206,7 @@ pub(super) fn polish_nodes(
             if idle.contains_key(v) {
                 continue;
             }
-            let d = move_node(m, &mut st, v, (budget, q_floor), g, &mut steps)?;
+            let d = move_node(m, &mut st, v, (budget, q_floor), g, (&mut steps, &walls))?;
             gain += d;
             if d > MOVE_GAIN {
                 for w in m.neighbours(v) {
@@ -258,14 +259,15 @@ pub(super) fn star_merit(
 /// twice the node's last one; a boundary node moves along the chord of its two boundary
 /// neighbours and is projected back. A step is kept when the merit with the true sizes rises,
 /// no triangle of the star falls below the smallest quality of the star or the mesh and the
-/// size deviation stays within `budget`. Returns the gain in summed merit.
+/// size deviation stays within `budget`; a boundary node's new edges must clear `walls` (see
+/// [`relocate_clear`]). Returns the gain in summed merit.
 pub(super) fn move_node(
     m: &mut TriMesh<DVec2>,
     st: &mut Stats,
     v: VertexId,
     (budget, q_floor): (f64, f64),
     g: &Geometry,
-    steps: &mut SecondaryMap<VertexId, f64>,
+    (steps, walls): (&mut SecondaryMap<VertexId, f64>, &[[VertexId; 2]]),
 ) -> Result<f64, Error> {
     let faces = m.vertex_faces(v);
     let old = m.pos(v);
@@ -317,7 +319,7 @@ pub(super) fn move_node(
                 _ => continue,
             }
         }
-        if star_merit(m, v, x, &faces, &hs, rho_mean) <= before || m.relocate(v, x).is_err() {
+        if star_merit(m, v, x, &faces, &hs, rho_mean) <= before || !relocate_clear(m, v, x, walls) {
             continue;
         }
         let (mut after, mut d1, mut d2, mut qmin) = (0.0, 0.0, 0.0, f64::INFINITY);
