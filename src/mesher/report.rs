@@ -128,6 +128,10 @@ pub struct Report<Q> {
     /// What the run changed or doubts about its input (a part of the domain below the
     /// resolution dropped, ...), one sentence each; printed as warnings.
     pub notes: Vec<String>,
+    /// 2-D: the parts of the domain left out because the requested size there is wider than
+    /// they are (one point of each and the element size there); see `mesh_2d`, which meshes
+    /// such a domain again with the size capped by the local feature size.
+    pub dropped_by_size: Vec<([f64; 2], f64)>,
 }
 
 impl<Q> Report<Q> {
@@ -150,6 +154,7 @@ impl<Q> Report<Q> {
             gradient_survey: self.gradient_survey,
             level_set: self.level_set,
             notes: self.notes,
+            dropped_by_size: self.dropped_by_size,
         }
     }
 

@@ -17,8 +17,16 @@ use std::collections::HashMap;
 /// Depth, in local target lengths, past which a sample must be covered.
 const DEPTH: f64 = 0.2;
 
-/// The notes for the parts of the domain `mesh` leaves uncovered (empty when it covers it).
-pub(super) fn uncovered_notes(ctx: &Ctx, mesh: &TriMesh<DVec2>) -> Result<Vec<String>, Error> {
+/// A local element size past this many h0 where a part is dropped: the requested size, not
+/// the resolution, left it out.
+pub(super) const BY_SIZE: f64 = 1.5;
+
+/// The parts of the domain `mesh` leaves uncovered: a note for each (empty when it covers it),
+/// and those the requested size left out (a point of each and the element size there).
+pub(super) type Uncovered = (Vec<String>, Vec<([f64; 2], f64)>);
+
+/// See [`Uncovered`].
+pub(super) fn uncovered(ctx: &Ctx, mesh: &TriMesh<DVec2>) -> Result<Uncovered, Error> {
     let opts = ctx.opts;
     let [lo, hi] = opts.bbox;
     let ext = hi - lo;
@@ -68,7 +76,7 @@ pub(super) fn uncovered_notes(ctx: &Ctx, mesh: &TriMesh<DVec2>) -> Result<Vec<St
         }
     }
     // Group the missed samples into parts (8-connected on the grid), one note each.
-    let mut notes = Vec::new();
+    let (mut notes, mut by_size) = (Vec::new(), Vec::new());
     let mut seen = vec![false; nx * ny];
     for start in 0..nx * ny {
         if !missed[start] || seen[start] {
@@ -94,7 +102,10 @@ pub(super) fn uncovered_notes(ctx: &Ctx, mesh: &TriMesh<DVec2>) -> Result<Vec<St
         let p = lo + DVec2::new((start % nx) as f64, (start / nx) as f64) * step;
         // The element size there: a part narrower than it has no start node deep enough inside.
         let local = opts.h0 * ctx.h(p)?;
-        let (what, advice) = if local > 1.5 * opts.h0 {
+        if local > BY_SIZE * opts.h0 {
+            by_size.push((p.to_array(), local));
+        }
+        let (what, advice) = if local > BY_SIZE * opts.h0 {
             (format!("the local element size {local:.3}"), "lower the size there (--size) or h0 to mesh it")
         } else {
             (format!("the resolution h0 = {}", opts.h0), "lower h0 to mesh it")
@@ -108,5 +119,5 @@ pub(super) fn uncovered_notes(ctx: &Ctx, mesh: &TriMesh<DVec2>) -> Result<Vec<St
             step.x.max(step.y),
         ));
     }
-    Ok(notes)
+    Ok((notes, by_size))
 }

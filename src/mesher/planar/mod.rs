@@ -12,6 +12,7 @@ mod coverage;
 mod density;
 mod equilibrium;
 mod features;
+mod gaps;
 mod improve;
 pub(crate) mod options;
 pub(crate) mod report;
@@ -273,7 +274,36 @@ fn projected(r: Result<DVec2, ProjectError>) -> Result<Option<DVec2>, Error> {
 
 /// Runs the local strategy.
 pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, Error> {
-    run_from(domain, opts, None)
+    let out = run_from(domain, opts, None)?;
+    if out.report.dropped_by_size.is_empty() || opts.metric.is_some() {
+        return Ok(out);
+    }
+    // Parts narrower than the requested size were left out: meshed again with the size capped
+    // by the local feature size, the run that leaves out less is kept (both times counted).
+    let capped = gaps::capped_options(domain, opts, &out.report.dropped_by_size)?;
+    let mut again = run_from(domain, &capped, None)?;
+    let left = |o: &MeshOutput2| o.report.notes.iter().filter(|n| n.contains("is not meshed")).count();
+    if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+        eprintln!(
+            "parts left out by the size: {}; meshed again with the size capped by the feature size: {}",
+            left(&out),
+            left(&again)
+        );
+    }
+    if left(&again) < left(&out) {
+        again.report.seconds += out.report.seconds;
+        again.report.notes.push(format!(
+            "the size was capped by the local feature size (two elements across) where it was wider than the domain \
+             ({} part{} had been left out)",
+            out.report.dropped_by_size.len(),
+            if out.report.dropped_by_size.len() == 1 { "" } else { "s" }
+        ));
+        Ok(again)
+    } else {
+        let mut out = out;
+        out.report.seconds += again.report.seconds;
+        Ok(out)
+    }
 }
 
 /// Runs the local strategy from `start` (a previous mesh: moving meshes and remeshing, seed
@@ -422,8 +452,9 @@ pub(crate) fn run_moving(
         return Err(Error::broken("the finished mesh is invalid", e));
     }
     if start.is_none() && freeze.is_none() {
-        let notes = coverage::uncovered_notes(&ctx, &mesh)?;
+        let (notes, by_size) = coverage::uncovered(&ctx, &mesh)?;
         ctx.report.notes.extend(notes);
+        ctx.report.dropped_by_size = by_size;
     }
     let mut report = ctx.report;
     report.seconds = t0.elapsed().as_secs_f64();
