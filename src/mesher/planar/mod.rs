@@ -280,8 +280,11 @@ pub(crate) fn run(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2
     }
     // Parts narrower than the requested size were left out: meshed again with the size capped
     // by the local feature size, the run that leaves out less is kept (both times counted).
-    let capped = gaps::capped_options(domain, opts, &out.report.dropped_by_size)?;
-    let mut again = run_from(domain, &capped, None)?;
+    // When the capped run cannot be made (too many elements, say) the first mesh stands with
+    // its warnings.
+    let again =
+        gaps::capped_options(domain, opts, &out.report.dropped_by_size).and_then(|c| run_from(domain, &c, None));
+    let Ok(mut again) = again else { return Ok(out) };
     let left = |o: &MeshOutput2| o.report.notes.iter().filter(|n| n.contains("is not meshed")).count();
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         eprintln!(
