@@ -160,8 +160,9 @@ pub trait Creases: Sync {
     fn patch(&self, p: DVec3) -> Option<u32>;
     /// The corners.
     fn corners(&self) -> &[DVec3];
-    /// The point nearest `p` on the curve between patches `a` and `b`, with the curve's unit
-    /// tangent there; `None` when the two patches do not meet.
+    /// The point nearest `p` on the curve between patches `a` and `b` (for a triangulated
+    /// input, the curve through its feature edges' vertices at the nearest edge point), with
+    /// the curve's unit tangent there; `None` when the two patches do not meet.
     fn onto(&self, a: u32, b: u32, p: DVec3) -> Option<(DVec3, DVec3)>;
     /// Points on the curves (not corners) that the mesh holds a vertex at: where a curve given
     /// in coarse steps turns sharply. None by default.

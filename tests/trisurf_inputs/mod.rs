@@ -164,7 +164,7 @@ pub fn random_turned_box(rng: &mut Rng) -> TriSurface {
     turned_box(5, half, rot, DVec3::ZERO)
 }
 
-/// The largest distance from points 0.1 h0 apart on the input's feature curves to the nearest
+/// The largest distance from points 0.1 h0 apart on the input's feature edges to the nearest
 /// feature edge of `out` (at the same feature angle), over h0, and the number of corners of `out`.
 pub fn feature_gap(input: &TriSurface, out: &TriSurface, h0: f64) -> (f64, usize) {
     let fin = input.features(DEFAULT_FEATURE_ANGLE);
@@ -175,8 +175,19 @@ pub fn feature_gap(input: &TriSurface, out: &TriSurface, h0: f64) -> (f64, usize
         let t = ((q - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
         q.distance(a + (b - a) * t)
     };
-    let worst = fin
-        .sample(input, &|_| 0.1 * h0)
+    // Points on the input's own feature edges (not the library's sampling, which may follow a
+    // smooth curve through them), 0.1 h0 apart or closer, ends included.
+    let ip = input.points();
+    let points: Vec<DVec3> = fin
+        .edges
+        .iter()
+        .flat_map(|&[a, b]| {
+            let (pa, pb) = (ip[a], ip[b]);
+            let n = (pa.distance(pb) / (0.1 * h0)).ceil().max(1.0) as usize;
+            (0..=n).map(move |k| pa.lerp(pb, k as f64 / n as f64))
+        })
+        .collect();
+    let worst = points
         .iter()
         .map(|&q| segs.iter().map(|&(a, b)| seg_dist(q, a, b)).fold(f64::INFINITY, f64::min))
         .fold(0.0, f64::max);

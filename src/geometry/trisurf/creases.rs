@@ -2,8 +2,9 @@
 //! into smooth patches (connected across every edge that is not a feature edge), the feature
 //! edges grouped by the two patches they separate, and the corners where three or more patches
 //! meet. The surface mesher labels its own triangles by the patch under them, so that a mesh
-//! vertex between two labels lies on the curve of that pair and is projected onto the input's
-//! own edges there, exactly (see [`crate::geometry::Creases`]).
+//! vertex between two labels lies on the curve of that pair and is projected onto it: the
+//! input's own edges, or the smooth curve through their vertices where the edges sample one
+//! (see [`CurveSegment`] and [`crate::geometry::Creases`]).
 
 use super::TriSurface;
 use crate::geometry::{Creases, LabelledTriangulation};
@@ -23,8 +24,93 @@ pub struct CreaseData {
     corners: Vec<DVec3>,
     /// The pins: input vertices where a curve turns sharply (see [`pins`]).
     pins: Vec<DVec3>,
-    /// The feature edges between each two patches (lower label first), as segments.
-    curves: HashMap<(u32, u32), Vec<[DVec3; 2]>>,
+    /// The feature edges between each two patches (lower label first), as pieces of the
+    /// smooth curve through their vertices (see [`CurveSegment`]).
+    curves: HashMap<(u32, u32), Vec<CurveSegment>>,
+}
+
+/// A feature edge of the input as a piece of the curve the mesher holds: the cubic Hermite
+/// curve from `a` to `b` with end tangents `ta` and `tb` (scaled to the edge's length). Where
+/// the input's curve turns by at most [`SMOOTH_TURN`] at a vertex, its tangent there is the
+/// direction between the vertex's two neighbours along the curve (a finite-difference
+/// tangent), so that a polygon sampling a smooth curve (a hole's rim in a CAD export) is held as
+/// a smooth curve through its vertices: an output vertex between two input vertices lies on
+/// the curve, not inside it on the chord, and an output chord spanning an input vertex cuts
+/// the rim by its own sagitta only. Elsewhere (corners, sharp turns, curve ends) the tangent is
+/// the edge's own direction and the piece is the straight edge.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CurveSegment {
+    a: DVec3,
+    b: DVec3,
+    ta: DVec3,
+    tb: DVec3,
+}
+
+impl CurveSegment {
+    /// The point at parameter `t` in [0, 1] and the unit tangent there.
+    pub(super) fn at(&self, t: f64) -> (DVec3, DVec3) {
+        let e = self.b - self.a;
+        if self.ta == e && self.tb == e {
+            return (self.a + e * t, e.normalize_or_zero());
+        }
+        let (t2, t3) = (t * t, t * t * t);
+        let p = self.a * (2.0 * t3 - 3.0 * t2 + 1.0)
+            + self.ta * (t3 - 2.0 * t2 + t)
+            + self.b * (-2.0 * t3 + 3.0 * t2)
+            + self.tb * (t3 - t2);
+        let d = (self.a - self.b) * (6.0 * t2 - 6.0 * t)
+            + self.ta * (3.0 * t2 - 4.0 * t + 1.0)
+            + self.tb * (3.0 * t2 - 2.0 * t);
+        (p, d.try_normalize().unwrap_or_else(|| (self.b - self.a).normalize_or_zero()))
+    }
+}
+
+/// The largest turn (radians, 20 degrees) of the input's feature curve at a vertex that is
+/// taken as a sample of a smooth curve (see [`CurveSegment`]). A piece between two such
+/// vertices bulges from its chord by about theta s / 8 for a turn theta and an edge s: at most
+/// 0.044 s, within the input's own tessellation error of the curve it samples.
+pub(super) const SMOOTH_TURN: f64 = 0.35;
+
+/// A vertex tangent within this sine of its edge's direction is the edge's own.
+const STRAIGHT: f64 = 1e-9;
+
+/// The unit tangent of the smooth curve at input vertex `v`, whose neighbours along the curves
+/// are `along`: None at a corner, a curve's end, or where [`smooth_tangent_at`] says so. Its
+/// sign is arbitrary; [`CurveSegment::new`] orients it.
+fn smooth_tangent(p: &[DVec3], v: usize, along: &[usize], patches_around: usize, coarse: f64) -> Option<DVec3> {
+    let [k, j] = along else { return None };
+    if patches_around != 2 {
+        return None;
+    }
+    smooth_tangent_at(p[*k], p[v], p[*j], coarse)
+}
+
+/// The unit tangent of the smooth curve through `prev`, `v` and `next` at `v`: the direction
+/// from `prev` to `next`, or None where the curve turns by more than SMOOTH_TURN at `v` or both
+/// of its edges there are at least `coarse` long (the mesh follows such edges, and pins their
+/// sharper turns, see [`pins`]: a faceted prism's rim stays a polygon).
+pub(super) fn smooth_tangent_at(prev: DVec3, v: DVec3, next: DVec3, coarse: f64) -> Option<DVec3> {
+    if prev.distance(v) >= coarse && next.distance(v) >= coarse {
+        return None;
+    }
+    let turn = (v - prev).angle_between(next - v);
+    (turn <= SMOOTH_TURN).then(|| (next - prev).try_normalize()).flatten()
+}
+
+impl CurveSegment {
+    /// The curve piece of the input edge a-b, with the vertices' smooth tangents where they
+    /// have one (oriented from a to b and scaled to the edge's length).
+    pub(super) fn new(a: DVec3, b: DVec3, ta: Option<DVec3>, tb: Option<DVec3>) -> CurveSegment {
+        let e = b - a;
+        let (len, dir) = (e.length(), e.normalize_or_zero());
+        // A tangent along the edge (within rounding) is the edge's: a straight run of the
+        // curve stays exactly straight (see `CurveSegment::at`).
+        let end = |t: Option<DVec3>| match t {
+            Some(t) if t.cross(dir).length() > STRAIGHT => (if t.dot(e) < 0.0 { -t } else { t }) * len,
+            _ => e,
+        };
+        CurveSegment { a, b, ta: end(ta), tb: end(tb) }
+    }
 }
 
 impl CreaseData {
@@ -59,7 +145,7 @@ impl CreaseData {
         if label.len() > MAX_PATCHES {
             return None;
         }
-        let mut curves: HashMap<(u32, u32), Vec<[DVec3; 2]>> = HashMap::new();
+        let mut edges: Vec<((u32, u32), usize, usize)> = Vec::new();
         let mut around: Vec<Vec<u32>> = vec![Vec::new(); s.points.len()];
         // Each vertex's neighbours along the curves, for the pins.
         let mut along: Vec<smallvec::SmallVec<[usize; 2]>> = vec![smallvec::SmallVec::new(); s.points.len()];
@@ -74,14 +160,21 @@ impl CreaseData {
                 let (a, b) = (patch[t], patch[w]);
                 if w > t && a != b {
                     let (i, j) = (s.tris[t][k], s.tris[t][(k + 1) % 3]);
-                    curves.entry((a.min(b), a.max(b))).or_default().push([s.points[i], s.points[j]]);
+                    edges.push(((a.min(b), a.max(b)), i, j));
                     along[i].push(j);
                     along[j].push(i);
                 }
             }
         }
-        if curves.is_empty() {
+        if edges.is_empty() {
             return None;
+        }
+        let coarse = h.map_or(f64::INFINITY, |h| PIN_GAP * h);
+        let tangent: Vec<Option<DVec3>> =
+            (0..s.points.len()).map(|v| smooth_tangent(&s.points, v, &along[v], around[v].len(), coarse)).collect();
+        let mut curves: HashMap<(u32, u32), Vec<CurveSegment>> = HashMap::new();
+        for (key, i, j) in edges {
+            curves.entry(key).or_default().push(CurveSegment::new(s.points[i], s.points[j], tangent[i], tangent[j]));
         }
         let corners: Vec<DVec3> = (0..s.points.len()).filter(|&v| around[v].len() >= 3).map(|v| s.points[v]).collect();
         let pins = h.map_or_else(Vec::new, |h| pins(&s.points, &along, &corners, PIN_GAP * h));
@@ -208,12 +301,15 @@ fn merge_narrow(s: &TriSurface, sets: &mut DisjointSets, narrow: f64) {
     }
 }
 
-/// The nearest point of segment `s` to `p`.
-fn on_segment(p: DVec3, s: [DVec3; 2]) -> DVec3 {
+/// The parameter in [0, 1] of the nearest point of segment `s` to `p`.
+fn on_segment(p: DVec3, s: [DVec3; 2]) -> f64 {
     let d = s[1] - s[0];
     let l2 = d.length_squared();
-    let t = if l2 > 0.0 { ((p - s[0]).dot(d) / l2).clamp(0.0, 1.0) } else { 0.0 };
-    s[0] + d * t
+    if l2 > 0.0 {
+        ((p - s[0]).dot(d) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
 }
 
 impl Creases for TriSurface {
@@ -237,14 +333,15 @@ impl Creases for TriSurface {
     }
     fn onto(&self, a: u32, b: u32, p: DVec3) -> Option<(DVec3, DVec3)> {
         let segs = self.crease_data()?.curves.get(&(a.min(b), a.max(b)))?;
-        let mut best: Option<(f64, DVec3, DVec3)> = None;
-        for &s in segs {
-            let q = on_segment(p, s);
-            let d2 = q.distance_squared(p);
+        // The nearest input edge, then the point of its curve piece at the same parameter.
+        let mut best: Option<(f64, usize, f64)> = None;
+        for (k, c) in segs.iter().enumerate() {
+            let t = on_segment(p, [c.a, c.b]);
+            let d2 = (c.a + (c.b - c.a) * t).distance_squared(p);
             if best.is_none_or(|b| d2 < b.0) {
-                best = Some((d2, q, (s[1] - s[0]).normalize_or_zero()));
+                best = Some((d2, k, t));
             }
         }
-        best.map(|(_, q, t)| (q, t))
+        best.map(|(_, k, t)| segs[k].at(t))
     }
 }

@@ -2,6 +2,7 @@
 //! feature angle, corners where three or more such edges meet (or one ends, or a chain of them
 //! turns by more than the feature angle), and the chains of feature edges between corners.
 
+use super::creases::{smooth_tangent_at, CurveSegment, PIN_GAP};
 use super::TriSurface;
 use glam::DVec3;
 
@@ -218,8 +219,10 @@ impl TriSurface {
 impl Features {
     /// Points on the feature curves about `spacing(p)` apart (absolute lengths): every corner,
     /// then on each curve points at equal steps of the integral of 1 / spacing along it, the
-    /// number of steps rounded (at least one per open curve, three per loop). Points exactly on
-    /// the input's edges, so on the surface. A curve point nearer than half the spacing to one
+    /// number of steps rounded (at least one per open curve, three per loop). The points lie on
+    /// the input's edges, or, where edges shorter than the spacing turn gently, on the smooth
+    /// curve through their vertices that the surface mesher holds too (within about theta s / 8
+    /// of the edges for a turn theta and an edge s). A curve point nearer than half the spacing to one
     /// already placed (of another curve) is left out.
     pub fn sample(&self, surface: &TriSurface, spacing: &dyn Fn(DVec3) -> f64) -> Vec<DVec3> {
         self.sample_where(surface, spacing, &|_, _| true)
@@ -246,6 +249,17 @@ impl Features {
                 acc.push(acc.last().copied().unwrap_or(0.0) + step);
             }
             let total = acc.last().copied().unwrap_or(0.0);
+            // The curve the points lie on: the input's edges, or the smooth curve through
+            // their vertices where finer edges turn gently (as the surface mesher holds it).
+            let last = curve.len() - 1;
+            let tangent = |k: usize| {
+                let prev = if k > 0 { Some(k - 1) } else { closed.then(|| last - 1) };
+                let next = if k < last { Some(k + 1) } else { closed.then_some(1) };
+                let (a, b) = (prev?, next?);
+                let v = p[curve[k]];
+                smooth_tangent_at(p[curve[a]], v, p[curve[b]], PIN_GAP * spacing(v))
+            };
+            let piece = |k: usize| CurveSegment::new(p[curve[k]], p[curve[k + 1]], tangent(k), tangent(k + 1));
             let n = (total.round() as usize).max(if closed { 3 } else { 1 });
             let mut seg = 0;
             let first = out.len();
@@ -258,7 +272,7 @@ impl Features {
                 }
                 let (s0, s1) = (acc[seg], acc[seg + 1]);
                 let u = if s1 > s0 { ((s - s0) / (s1 - s0)).clamp(0.0, 1.0) } else { 0.0 };
-                let q = p[curve[seg]].lerp(p[curve[seg + 1]], u);
+                let q = piece(seg).at(u).0;
                 let h = spacing(q);
                 if out[..first].iter().any(|o| o.distance(q) < 0.5 * h) || !keep(q, [curve[seg], curve[seg + 1]]) {
                     continue;

@@ -411,8 +411,18 @@ fn mesh_surface_held(
         // little (measured on the unit sphere, see docs/surface.md).
         let coarsest = level == levels;
         let passes = if level > 0 || coarsest { density::REMESH_PASSES } else { 0 };
-        for _ in 0..passes {
-            density::remesh_pass(&mut m, phi, &level_size, tol, &mut counts)?;
+        for pass in 0..passes + density::CROWDED_PASSES {
+            // The passes at the sizes, then while the mesh is still crowded, passes at the
+            // sizes its count implies.
+            let crowded = if pass < passes {
+                None
+            } else {
+                match density::against_crowding(&m, &level_size, expected_vertices(&m, &level_size)) {
+                    Some(s) => Some(s),
+                    None => break,
+                }
+            };
+            density::remesh_pass(&mut m, phi, crowded.as_ref().unwrap_or(&level_size), tol, &mut counts)?;
             st.remesh_passes += 1;
             if held && m.num_vertices() > HELD_GROWTH * start_vertices + 1000 {
                 return Ok(Err(held_runaway(start_vertices, m.num_vertices())));
