@@ -47,6 +47,20 @@ pub(super) struct CurveSegment {
 }
 
 impl CurveSegment {
+    /// The curve piece of the input edge a-b, with the vertices' smooth tangents where they
+    /// have one (oriented from a to b and scaled to the edge's length).
+    pub(super) fn new(a: DVec3, b: DVec3, ta: Option<DVec3>, tb: Option<DVec3>) -> CurveSegment {
+        let e = b - a;
+        let (len, dir) = (e.length(), e.normalize_or_zero());
+        // A tangent along the edge (within rounding) is the edge's: a straight run of the
+        // curve stays exactly straight (see `CurveSegment::at`).
+        let end = |t: Option<DVec3>| match t {
+            Some(t) if t.cross(dir).length() > STRAIGHT => (if t.dot(e) < 0.0 { -t } else { t }) * len,
+            _ => e,
+        };
+        CurveSegment { a, b, ta: end(ta), tb: end(tb) }
+    }
+
     /// The point at parameter `t` in [0, 1] and the unit tangent there.
     pub(super) fn at(&self, t: f64) -> (DVec3, DVec3) {
         let e = self.b - self.a;
@@ -95,22 +109,6 @@ pub(super) fn smooth_tangent_at(prev: DVec3, v: DVec3, next: DVec3, coarse: f64)
     }
     let turn = (v - prev).angle_between(next - v);
     (turn <= SMOOTH_TURN).then(|| (next - prev).try_normalize()).flatten()
-}
-
-impl CurveSegment {
-    /// The curve piece of the input edge a-b, with the vertices' smooth tangents where they
-    /// have one (oriented from a to b and scaled to the edge's length).
-    pub(super) fn new(a: DVec3, b: DVec3, ta: Option<DVec3>, tb: Option<DVec3>) -> CurveSegment {
-        let e = b - a;
-        let (len, dir) = (e.length(), e.normalize_or_zero());
-        // A tangent along the edge (within rounding) is the edge's: a straight run of the
-        // curve stays exactly straight (see `CurveSegment::at`).
-        let end = |t: Option<DVec3>| match t {
-            Some(t) if t.cross(dir).length() > STRAIGHT => (if t.dot(e) < 0.0 { -t } else { t }) * len,
-            _ => e,
-        };
-        CurveSegment { a, b, ta: end(ta), tb: end(tb) }
-    }
 }
 
 impl CreaseData {
