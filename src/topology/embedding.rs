@@ -22,7 +22,7 @@
 use super::intersect::{first_hit, segments_meet, triangles_meet, Box3};
 use super::tetmesh::{TVertexId, TetId, TetMesh};
 use super::tri_validate::{Invariant, InvariantViolation};
-use super::trimesh::{TriMesh, VertexId};
+use super::trimesh::{FaceId, TriMesh, VertexId};
 use crate::predicates::{orient2d, orient3d, Sign};
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
@@ -228,6 +228,69 @@ pub(crate) fn faces_meet<T: Copy + PartialEq>(points: impl Fn(T) -> DVec3, t: [T
         }
     }
     triangles_meet(ts.map(|x| pt[x]), us.map(|y| pu[y]), shared)
+}
+
+/// Whether a face around any of `verts` meets a face within two rings of them other than in
+/// shared corners (exact, as [`surface`]): the local form of the surface test, for checking a
+/// move where the surface folds sharply. Two rings reach the faces across a
+/// feature curve from a vertex beside it, where a fold-free star can still pass through the
+/// other side's faces.
+pub(crate) fn surface_star_meets(m: &TriMesh<DVec3>, verts: &[VertexId]) -> bool {
+    let mut star: SmallVec<[[VertexId; 3]; 24]> = SmallVec::new();
+    let mut seen: SmallVec<[FaceId; 24]> = SmallVec::new();
+    for &v in verts.iter().filter(|&&v| m.contains_vertex(v)) {
+        for f in m.vertex_faces(v) {
+            if !seen.contains(&f) {
+                seen.push(f);
+                star.push(m.face_vertices(f));
+            }
+        }
+    }
+    let near = faces_near(m, verts, |f| !seen.contains(&f));
+    star_meets(|v| m.pos(v), &star, &near)
+}
+
+/// The faces (as corner triples) with a corner within two rings of `seeds` that `keep` accepts.
+fn faces_near(m: &TriMesh<DVec3>, seeds: &[VertexId], keep: impl Fn(FaceId) -> bool) -> Vec<[VertexId; 3]> {
+    let mut ring: Vec<VertexId> = seeds.iter().copied().filter(|&v| m.contains_vertex(v)).collect();
+    for _ in 0..2 {
+        let n = ring.len();
+        for i in 0..n {
+            ring.extend(m.neighbours(ring[i]));
+        }
+        ring.sort_unstable();
+        ring.dedup();
+    }
+    let mut faces: Vec<FaceId> = ring.iter().flat_map(|&w| m.vertex_faces(w)).filter(|&f| keep(f)).collect();
+    faces.sort_unstable();
+    faces.dedup();
+    faces.into_iter().map(|f| m.face_vertices(f)).collect()
+}
+
+/// Whether a face of `star` meets another of `star` or one of `near` that shares no corner with
+/// it. Faces sharing a corner are left to the callers' fold tests (the orientation of every
+/// triangle around a moved vertex), which catch what a crossing there would be.
+fn star_meets(point: impl Fn(VertexId) -> DVec3 + Copy, star: &[[VertexId; 3]], near: &[[VertexId; 3]]) -> bool {
+    let bounds = |t: &[VertexId; 3]| {
+        let [a, b, c] = t.map(point);
+        (a.min(b).min(c), a.max(b).max(c))
+    };
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for t in star {
+        let (l, h) = bounds(t);
+        lo = lo.min(l);
+        hi = hi.max(h);
+    }
+    let apart = |t: &[VertexId; 3], u: &[VertexId; 3]| t.iter().all(|v| !u.contains(v));
+    star.iter().enumerate().any(|(i, t)| {
+        star[i + 1..]
+            .iter()
+            .chain(near.iter().filter(|u| {
+                let (l, h) = bounds(u);
+                !(h.cmplt(lo).any() || hi.cmplt(l).any())
+            }))
+            .any(|u| apart(t, u) && faces_meet(point, *t, *u))
+    })
 }
 
 /// Checks that a triangle mesh in space does not intersect itself.
@@ -573,5 +636,20 @@ mod tests {
         let mut t3 = t.clone();
         t3.push([0, 1, 2]);
         assert!(TriMesh::from_arrays(&p, &t3).is_err());
+    }
+
+    /// The local surface test: a star moved through the faces beside it is caught, a star
+    /// moved back is clear.
+    #[test]
+    fn local_surface_crossings_are_caught() {
+        let (p, t) = octahedron(DVec3::ZERO);
+        let (mut m, ids) = TriMesh::from_arrays(&p, &t).unwrap();
+        assert!(!surface_star_meets(&m, &[ids[4]]));
+        // The top apex pulled down through the bottom half (see the test above).
+        m.set_pos_unchecked(ids[4], DVec3::new(0.9, 0.0, -0.5));
+        assert!(surface_star_meets(&m, &[ids[4]]));
+        // Pulled down only to the equator's plane, flat but crossing nothing.
+        m.set_pos_unchecked(ids[4], DVec3::new(0.0, 0.0, 0.0));
+        assert!(!surface_star_meets(&m, &[ids[4]]));
     }
 }

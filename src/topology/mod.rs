@@ -29,7 +29,9 @@ mod trimesh;
 
 pub use delaunay::hilbert_order;
 pub use disjoint_sets::DisjointSets;
-pub(crate) use embedding::{boundary_clear, boundary_edges_if_split, faces_meet, fan_winds_once, ring_winds_once};
+pub(crate) use embedding::{
+    boundary_clear, boundary_edges_if_split, faces_meet, fan_winds_once, ring_winds_once, surface_star_meets,
+};
 pub use incidence::{Incidence, VertexIndex};
 pub use tet_delaunay::{hilbert_order_3d, hilbert_sort_3d};
 pub use tet_edge_removal::Objective;

@@ -194,6 +194,30 @@ pub fn move_if_no_fold_g(m: &mut TriMesh<DVec3>, v: VertexId, p: DVec3, g: DVec3
     true
 }
 
+/// Moves `v` to `p` unless, near a feature ([`near_feature`]), the surface then crosses itself
+/// there and did not before (a surface already crossing itself may still move out of it).
+/// Returns whether it moved.
+pub fn move_unless_crossing(m: &mut TriMesh<DVec3>, v: VertexId, p: DVec3) -> bool {
+    let from = m.pos(v);
+    m.set_pos_unchecked(v, p);
+    if near_feature(m, v) && crate::topology::surface_star_meets(m, &[v]) {
+        m.set_pos_unchecked(v, from);
+        if !crate::topology::surface_star_meets(m, &[v]) {
+            return false;
+        }
+        m.set_pos_unchecked(v, p);
+    }
+    true
+}
+
+/// Whether `v` or a neighbour is held on a feature (a curve vertex or a corner): there the
+/// surface turns sharply, and a star with no fold of its own can pass through the faces across
+/// the curve (the final projection checks that there; the force loop's moves, a thousand times
+/// as many, do not: measured on the part, the check would cost five times the run).
+pub(super) fn near_feature(m: &TriMesh<DVec3>, v: VertexId) -> bool {
+    m.tag(v) != VertexTag::Interior || m.neighbours(v).iter().any(|&w| m.tag(w) != VertexTag::Interior)
+}
+
 /// Gauss-Seidel sweeps that move each vertex in its tangent plane to bring the lengths of its
 /// edges toward `scale` h(midpoint): one Gauss-Newton step on sum (|p - n_j| - t_j)^2 per
 /// vertex and sweep, limited to a fifth of h, then projected; moves that would fold are skipped.

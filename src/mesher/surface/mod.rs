@@ -64,7 +64,7 @@ use crate::topology::{TriMesh, VertexId, VertexTag};
 use crate::Error;
 use geom::project;
 use glam::DVec3;
-use improve::{flip_pass, FlipGoal};
+use improve::{flip_pass, move_unless_crossing, FlipGoal};
 use rayon::prelude::*;
 
 /// A surface mesh and its report.
@@ -214,7 +214,10 @@ fn held_fallbacks(
     let input = phi.creases().and_then(features::input_start).map(Start::Input);
     let starts = invalid.map(Start::Given).into_iter().chain([Start::Marched { top: start::MAX_LEVELS }]).chain(input);
     for from in starts {
+        let input = matches!(from, Start::Input(_));
         match mesh_surface_held(phi, opts, size, true, from, None) {
+            // Below the floors, the run from the input's own triangulation may come nearer.
+            Ok(Ok(out)) if !input => return Some(or_from_input(phi, opts, size, out)),
             Ok(Ok(out)) => return Some(out),
             Ok(Err(e)) | Err(e) => trace_held(&e),
         }
@@ -490,8 +493,16 @@ fn mesh_surface_held(
             _ => Ok(mesh.pos(v)),
         })
         .collect::<Result<_, Error>>()?;
+    let given = phi.creases().is_some();
     for (&v, &p) in ids.iter().zip(&finals) {
-        m.set_pos_unchecked(v, p);
+        // Unchecked for folds (the steps are within the tolerance the loop projected to), but
+        // with given features not where a curve vertex's step onto its curve would cross the
+        // faces beside it.
+        if given {
+            move_unless_crossing(&mut m, v, p);
+        } else {
+            m.set_pos_unchecked(v, p);
+        }
     }
     // The promise of a level-set surface: closed, oriented, manifold, not self-intersecting.
     if let Err(e) = m.validate_closed_surface() {
