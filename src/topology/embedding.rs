@@ -231,10 +231,10 @@ pub(crate) fn faces_meet<T: Copy + PartialEq>(points: impl Fn(T) -> DVec3, t: [T
 }
 
 /// Whether a face around any of `verts` meets a face within two rings of them other than in
-/// shared corners (exact, as [`surface`]): the local form of the surface test, for checking a
-/// move where the surface folds sharply. Two rings reach the faces across a
-/// feature curve from a vertex beside it, where a fold-free star can still pass through the
-/// other side's faces.
+/// shared corners (exact, as [`surface`]; faces sharing a corner with the star are not
+/// tested, see [`star_meets`]): the local form of the surface test, for checking a move where
+/// the surface folds sharply. Two rings reach the faces across a feature curve from a vertex
+/// beside it, where a fold-free star can still pass through the other side's faces.
 pub(crate) fn surface_star_meets(m: &TriMesh<DVec3>, verts: &[VertexId]) -> bool {
     let mut star: SmallVec<[[VertexId; 3]; 24]> = SmallVec::new();
     let mut seen: SmallVec<[FaceId; 24]> = SmallVec::new();
@@ -268,8 +268,9 @@ fn faces_near(m: &TriMesh<DVec3>, seeds: &[VertexId], keep: impl Fn(FaceId) -> b
 }
 
 /// Whether a face of `star` meets another of `star` or one of `near` that shares no corner with
-/// it. Faces sharing a corner are left to the callers' fold tests (the orientation of every
-/// triangle around a moved vertex), which catch what a crossing there would be.
+/// it. Faces sharing a corner are left out (a crossing there is a fold, for the callers' fold
+/// tests or the final check of the whole surface): touching in their shared corners, they
+/// would need the exact test every time.
 fn star_meets(point: impl Fn(VertexId) -> DVec3 + Copy, star: &[[VertexId; 3]], near: &[[VertexId; 3]]) -> bool {
     let bounds = |t: &[VertexId; 3]| {
         let [a, b, c] = t.map(point);
