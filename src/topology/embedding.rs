@@ -230,29 +230,21 @@ pub(crate) fn faces_meet<T: Copy + PartialEq>(points: impl Fn(T) -> DVec3, t: [T
     triangles_meet(ts.map(|x| pt[x]), us.map(|y| pu[y]), shared)
 }
 
-/// Whether a face around any of `verts` meets a face within two rings of them other than in
+/// Whether a face around `v` meets a face within two rings of it other than in
 /// shared corners (exact, as [`surface`]; faces sharing a corner with the star are not
 /// tested, see [`star_meets`]): the local form of the surface test, for checking a move where
 /// the surface folds sharply. Two rings reach the faces across a feature curve from a vertex
 /// beside it, where a fold-free star can still pass through the other side's faces.
-pub(crate) fn surface_star_meets(m: &TriMesh<DVec3>, verts: &[VertexId]) -> bool {
-    let mut star: SmallVec<[[VertexId; 3]; 24]> = SmallVec::new();
-    let mut seen: SmallVec<[FaceId; 24]> = SmallVec::new();
-    for &v in verts.iter().filter(|&&v| m.contains_vertex(v)) {
-        for f in m.vertex_faces(v) {
-            if !seen.contains(&f) {
-                seen.push(f);
-                star.push(m.face_vertices(f));
-            }
-        }
-    }
-    let near = faces_near(m, verts, |f| !seen.contains(&f));
-    star_meets(|v| m.pos(v), &star, &near)
+pub(crate) fn surface_star_meets(m: &TriMesh<DVec3>, v: VertexId) -> bool {
+    let faces = m.vertex_faces(v);
+    let star: SmallVec<[[VertexId; 3]; 8]> = faces.iter().map(|&f| m.face_vertices(f)).collect();
+    let near = faces_near(m, v, |f| !faces.contains(&f));
+    star_meets(|w| m.pos(w), &star, &near)
 }
 
-/// The faces (as corner triples) with a corner within two rings of `seeds` that `keep` accepts.
-fn faces_near(m: &TriMesh<DVec3>, seeds: &[VertexId], keep: impl Fn(FaceId) -> bool) -> Vec<[VertexId; 3]> {
-    let mut ring: Vec<VertexId> = seeds.iter().copied().filter(|&v| m.contains_vertex(v)).collect();
+/// The faces (as corner triples) with a corner within two rings of `v` that `keep` accepts.
+fn faces_near(m: &TriMesh<DVec3>, v: VertexId, keep: impl Fn(FaceId) -> bool) -> Vec<[VertexId; 3]> {
+    let mut ring: Vec<VertexId> = vec![v];
     for _ in 0..2 {
         let n = ring.len();
         for i in 0..n {
@@ -645,12 +637,12 @@ mod tests {
     fn local_surface_crossings_are_caught() {
         let (p, t) = octahedron(DVec3::ZERO);
         let (mut m, ids) = TriMesh::from_arrays(&p, &t).unwrap();
-        assert!(!surface_star_meets(&m, &[ids[4]]));
+        assert!(!surface_star_meets(&m, ids[4]));
         // The top apex pulled down through the bottom half (see the test above).
         m.set_pos_unchecked(ids[4], DVec3::new(0.9, 0.0, -0.5));
-        assert!(surface_star_meets(&m, &[ids[4]]));
+        assert!(surface_star_meets(&m, ids[4]));
         // Pulled down only to the equator's plane, flat but crossing nothing.
         m.set_pos_unchecked(ids[4], DVec3::new(0.0, 0.0, 0.0));
-        assert!(!surface_star_meets(&m, &[ids[4]]));
+        assert!(!surface_star_meets(&m, ids[4]));
     }
 }

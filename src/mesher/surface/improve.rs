@@ -200,9 +200,9 @@ pub fn move_if_no_fold_g(m: &mut TriMesh<DVec3>, v: VertexId, p: DVec3, g: DVec3
 pub fn move_unless_crossing(m: &mut TriMesh<DVec3>, v: VertexId, p: DVec3) -> bool {
     let from = m.pos(v);
     m.set_pos_unchecked(v, p);
-    if near_feature(m, v) && crate::topology::surface_star_meets(m, &[v]) {
+    if near_feature(m, v) && crate::topology::surface_star_meets(m, v) {
         m.set_pos_unchecked(v, from);
-        if !crate::topology::surface_star_meets(m, &[v]) {
+        if !crate::topology::surface_star_meets(m, v) {
             return false;
         }
         m.set_pos_unchecked(v, p);
