@@ -239,10 +239,22 @@ pub(super) fn restore_fixed(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Err
                     .map(|v| (m.pos(v).distance(p), v))
                     .collect();
                 near.sort_by(|a, b| a.0.total_cmp(&b.0));
-                near.iter()
-                    .take(RESTORE_TRIES)
-                    .find_map(|&(_, v)| m.relocate(v, p).ok().map(|_| v))
-                    .or_else(|| split_toward(m, p))
+                let mut placed = None;
+                for &(_, v) in near.iter().take(RESTORE_TRIES) {
+                    let old = m.pos(v);
+                    if !path_inside(ctx, old, p)? || m.relocate(v, p).is_err() {
+                        continue;
+                    }
+                    if star_inside(ctx, m, v)? {
+                        placed = Some(v);
+                        break;
+                    }
+                    m.set_pos_unchecked(v, old);
+                }
+                match placed {
+                    Some(v) => Some(v),
+                    None => split_toward(ctx, m, p)?,
+                }
             }
         };
         match v {
@@ -273,7 +285,7 @@ pub(super) fn corners_left_free(ctx: &Ctx, m: &TriMesh<DVec2>) -> Vec<DVec2> {
 /// Puts `p`, outside the mesh, in by splitting one of the boundary edges nearest to it at `p`:
 /// the edge's triangle becomes two, with the triangle between the edge and `p` added. Only an
 /// edge whose two new triangles are positive and whose added triangle holds no vertex.
-fn split_toward(m: &mut TriMesh<DVec2>, p: DVec2) -> Option<VertexId> {
+fn split_toward(ctx: &Ctx, m: &mut TriMesh<DVec2>, p: DVec2) -> Result<Option<VertexId>, Error> {
     use crate::predicates::{orient2d, Sign};
     let seg_dist = |a: DVec2, b: DVec2| {
         let t = ((p - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
@@ -299,13 +311,46 @@ fn split_toward(m: &mut TriMesh<DVec2>, p: DVec2) -> Option<VertexId> {
                 && orient2d(a, p, q) != Sign::Negative
                 && orient2d(p, b, q) != Sign::Negative
         });
-        if !holds {
+        if !holds && path_inside(ctx, a, p)? && path_inside(ctx, p, b)? {
             if let Ok(v) = m.split_edge(h, p) {
-                return Some(v);
+                return Ok(Some(v));
             }
         }
     }
-    None
+    Ok(None)
+}
+
+/// How far outside the domain, in local target lengths, the way from the mesh to a fixed
+/// point may pass (a chord over a concave stretch of the boundary).
+const RESTORE_SLACK: f64 = 0.25;
+
+/// Whether the segment a-b stays inside the domain to within [`RESTORE_SLACK`] local lengths,
+/// sampled every quarter of a local length. A fixed point whose way to the mesh leaves the
+/// domain (a corner of a separate part narrower than the start's lattice) would pull the
+/// mesh across the gap: such a corner is left out instead.
+fn path_inside(ctx: &Ctx, a: DVec2, b: DVec2) -> Result<bool, Error> {
+    let local = |q: DVec2| -> Result<f64, Error> { Ok(ctx.opts.h0 * ctx.h(q)?) };
+    let len = a.distance(b);
+    let n = (len / (0.25 * local(a)?.min(local(b)?))).ceil().clamp(1.0, 1e4) as usize;
+    for k in 1..n {
+        let q = a.lerp(b, k as f64 / n as f64);
+        if ctx.approx_dist(q)? > RESTORE_SLACK * local(q)? {
+            return Ok(false);
+        }
+    }
+    Ok(true)
+}
+
+/// Whether every triangle around `v` has its centroid inside the domain (the seed keeps a
+/// triangle by its centroid, section 2.2).
+fn star_inside(ctx: &Ctx, m: &TriMesh<DVec2>, v: VertexId) -> Result<bool, Error> {
+    for f in m.vertex_faces(v) {
+        let t = m.face_points(f);
+        if ctx.approx_dist((t[0] + t[1] + t[2]) / 3.0)? > 0.0 {
+            return Ok(false);
+        }
+    }
+    Ok(true)
 }
 
 /// Drops the pieces (edge-connected) of a carved triangle list that have no triangle with all

@@ -258,7 +258,6 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             })
             .map(|&(v, _, _)| v as usize)
             .collect();
-        joining.dedup();
         // Boundary nodes back onto d = 0; interior nodes must stay inside. d is evaluated in
         // batches over the active nodes (one call of a batch geometry per set, see
         // `Implicit2::values`), and so are the projections.
@@ -308,6 +307,13 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             }
             if d > -ctx.geps {
                 fixes.push((i, p[i]));
+                // An apex over a boundary edge that the forces push out of the domain without
+                // crossing the edge (over a concave stretch the chord lies outside) joins the
+                // boundary, as the seed's projection of every outside node would make it; held
+                // instead, it would press against d = 0 at every step and the run never rest.
+                if metric.is_none() && snap.is_apex(i) {
+                    joining.push(i);
+                }
             } else if ctx.crosses_internal(p[i], newp[i])? {
                 fixes.push((i, DVec2::NAN));
             }
@@ -325,6 +331,8 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 fixes.push((i, q));
             }
         }
+        joining.sort_unstable();
+        joining.dedup();
         fixes.sort_unstable_by_key(|f| f.0);
         let mut joining_internal = Vec::new();
         for (i, q) in fixes {

@@ -41,6 +41,8 @@ pub(super) struct Snapshot {
     loop_edges: Vec<[u32; 2]>,
     /// Triangles over a boundary edge a -> b with an interior apex v: (v, a, b).
     pub(super) apexes: Vec<(u32, u32, u32)>,
+    /// The apexes of `apexes`, sorted, for [`Snapshot::is_apex`].
+    apex_ids: Vec<u32>,
     /// Neighbours along internal-boundary edges (up to two per vertex, u32::MAX if none).
     pub(super) iface_nbrs: Vec<[u32; 2]>,
 }
@@ -160,9 +162,20 @@ impl Snapshot {
                 .map(|i| [i, loop_nbrs[i as usize].1])
                 .collect(),
             loop_nbrs,
+            apex_ids: {
+                let mut ids: Vec<u32> = apexes.iter().map(|a| a.0).collect();
+                ids.sort_unstable();
+                ids.dedup();
+                ids
+            },
             apexes,
             iface_nbrs,
         }
+    }
+
+    /// Whether node `i` is the interior apex of a triangle over a boundary edge.
+    pub(super) fn is_apex(&self, i: usize) -> bool {
+        self.apex_ids.binary_search(&(i as u32)).is_ok()
     }
 
     /// Step control from `old` to `newp` (only the triangles in `subset` when given): a vertex

@@ -131,7 +131,7 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2
         ctx.report.feature_points -= free.len();
         let at: Vec<String> = free.iter().map(|p| format!("({:.4}, {:.4})", p.x, p.y)).collect();
         ctx.report.notes.push(format!(
-            "{} sharp corner(s) found at {} could not be held (the start mesh is too stretched there) and may be rounded off; give them as fixed points to hold them",
+            "{} sharp corner(s) found at {} could not be held (no start node reaches them inside the domain: the start is too stretched there, or they belong to a part narrower than h0) and may be rounded off or left out; give them as fixed points to hold them, or lower h0",
             free.len(),
             at.join(", ")
         ));
