@@ -259,3 +259,21 @@ fn a_node_pressed_against_a_concave_boundary_joins_it_and_the_run_rests() {
     assert!(!matches!(out.report.stop, StopReason::IterationCap { .. }), "stopped by {}", out.report.stop);
     assert!(q.q_min >= 0.7 && q.q_mean >= 0.97, "q min {:.4}, q mean {:.4}", q.q_min, q.q_mean);
 }
+
+/// A quadrilateral about 3.5 by 2 h0 whose run left a deep notch in the mesh: a boundary
+/// collapse and a boundary split of the search, each checked locally, made the boundary cross
+/// itself, and runs capped at 3 to 12 iterations ended in an internal error ("the finished mesh
+/// is invalid"). A change at the boundary is now kept only if the trial mesh is an embedding.
+#[test]
+fn the_search_keeps_an_embedding_at_the_boundary_of_a_coarse_mesh() {
+    let src =
+        "ddiff(dpoly(x,y,0.050,0.386,-0.115,0.348,-0.182,0.241,0.094,0.231),drectangle(x,y,0.241,0.751,-0.081,0.249))";
+    let d = ExprImplicit2::new(Expr::parse(src).expect("parses"));
+    for max_iter in [3, 5, 12] {
+        let mut opts = Options2::uniform(0.08, [-1.5, -1.5], [1.5, 1.5]);
+        opts.max_iter = max_iter;
+        let out = mesh_2d(&d, &opts).unwrap_or_else(|e| panic!("capped at {max_iter}: {e}"));
+        out.mesh.validate(Level::Geometry).expect("valid");
+        println!("capped at {max_iter}: {} triangles, q min {:.4}", out.mesh.num_faces(), out.report.quality.q_min);
+    }
+}

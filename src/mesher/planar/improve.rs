@@ -1,6 +1,6 @@
 use super::smoothing::*;
 use crate::mesher::truss::{backtrack, bar_force, RestScale};
-use crate::topology::{FaceId, TriMesh, VertexId, VertexTag};
+use crate::topology::{FaceId, Level, TriMesh, VertexId, VertexTag};
 use crate::Error;
 use glam::DVec2;
 use rayon::prelude::*;
@@ -167,7 +167,7 @@ pub(super) fn search(m: &mut TriMesh<DVec2>, g: &Geometry) -> Result<usize, Erro
         dirty = Some(touched);
     }
     let end = Sums::of(m, g.h)?;
-    if end.q_mean() < start.q_mean() || end.dev() > budget || end.qmin < floor {
+    if end.q_mean() < start.q_mean() || end.dev() > budget || end.qmin < floor || m.validate(Level::Geometry).is_err() {
         *m = original;
         return Ok(0);
     }
@@ -205,6 +205,11 @@ fn best_change(
     let region = rings_around(m, &[a, b], RELAX_RINGS + 3);
     let before = Sums::around(m, &region, g.h)?;
     let merit = |x: &Sums| x.q_mean() - SIZE_WEIGHT * x.dev();
+    // A collapse or split at the boundary is checked locally (fans, the new boundary edges
+    // against the loop), which a mesh of a few triangles with a deep notch can still defeat
+    // (the boundary crossed itself in a 2 x 3.5 h0 quadrilateral): a change there is kept
+    // only if the whole trial mesh is an embedding (few are kept, so this costs little).
+    let at_boundary = m.is_boundary_vertex(a) || m.is_boundary_vertex(b);
     let mut best: Option<Trial> = None;
     for op in [Op::Collapse, Op::Split, Op::Flip] {
         let mut trial = m.clone();
@@ -223,7 +228,11 @@ fn best_change(
             Sums::of(&trial, g.h)?
         };
         let bar = best.as_ref().map_or(merit(cur) + 1e-7, |b| merit(&b.sums));
-        if merit(&next) > bar && next.dev() <= lim.budget && next.qmin >= lim.floor {
+        if merit(&next) > bar
+            && next.dev() <= lim.budget
+            && next.qmin >= lim.floor
+            && (matches!(op, Op::Flip) || !at_boundary || trial.validate(Level::Geometry).is_ok())
+        {
             best = Some(Trial { sums: next, mesh: trial, near });
         }
     }
