@@ -708,6 +708,26 @@ fn messages_name_the_real_cause() {
         &["the domain is about 0.0492 across along z, less than h0 = 0.1: no tetrahedron fits across it"],
     );
     assert!(!r.stderr.contains("coplanar"));
+    // A 3-D intersection of two boxes that overlap in a slab 0.007 thick, thinner than the
+    // sampling sees: the start's nodes inside lie in one plane.
+    let r = refused(
+        &d,
+        &[
+            "mesh",
+            "--dim",
+            "3",
+            "--domain",
+            "dintersect(dbox(x,y,z,0.034,0.641,-0.337,0.206,-0.515,0.255),dbox(x,y,z,-0.158,0.311,0.199,0.952,-0.245,0.426))",
+            "--h0",
+            "0.1",
+            "--bbox",
+            "-1.5,-1.5,-1.5,1.5,1.5,1.5",
+            "-o",
+            "a.vtu",
+        ],
+        &["the domain is thinner than h0 = 0.1 across", "give a smaller --h0"],
+    );
+    assert!(!r.stderr.contains("coplanar"));
     // An h0 larger than the domain.
     refused(
         &d,

@@ -17,9 +17,17 @@ impl Job {
         if !(empty || coplanar) {
             return f;
         }
+        // Every start node inside lies in one plane: the domain is flat at h0's resolution.
+        let flat = || {
+            Failure::bad(format!(
+                "the start mesh's nodes inside the domain all lie in one plane: the domain is thinner than h0 = {} \
+                 across (or smaller than h0), so no tetrahedron fits in it; give a smaller --h0",
+                self.h0
+            ))
+        };
         let s = DomainSample::new(self);
         if s.inside == 0 {
-            return f;
+            return if coplanar { flat() } else { f };
         }
         let axes = ["x", "y", "z"];
         // A domain thinner than h0 along an axis: no element fits across it.
@@ -64,6 +72,9 @@ impl Job {
                 sig(extent),
                 sig(extent / 3.0)
             ));
+        }
+        if coplanar {
+            return flat();
         }
         f
     }
