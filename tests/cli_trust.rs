@@ -689,45 +689,28 @@ fn messages_name_the_real_cause() {
         &["mesh", "--domain", CIRCLE, "--h0", "0.1", "--bbox", "-1e308,-1,1e308,1", "-o", "a.vtu"],
         &["--bbox is too wide along axis x: from -1.00e308 to 1.00e308 is more than the largest number"],
     );
-    // A 3-D box thinner than h0.
-    let r = refused(
-        &d,
-        &[
-            "mesh",
-            "--dim",
-            "3",
-            "--domain",
+    // A 3-D box thinner than h0, and an intersection of two boxes that overlap in a slab 0.007
+    // thick, thinner than the sampling sees (the start's nodes inside lie in one plane).
+    let thin: [(&str, &str, &[&str]); 2] = [
+        (
             "dbox(x,y,z,0,1,0,1,0,0.05)",
-            "--h0",
-            "0.1",
-            "--bbox",
             "0,0,0,1,1,0.05",
-            "-o",
-            "a.vtu",
-        ],
-        &["the domain is about 0.0492 across along z, less than h0 = 0.1: no tetrahedron fits across it"],
-    );
-    assert!(!r.stderr.contains("coplanar"));
-    // A 3-D intersection of two boxes that overlap in a slab 0.007 thick, thinner than the
-    // sampling sees: the start's nodes inside lie in one plane.
-    let r = refused(
-        &d,
-        &[
-            "mesh",
-            "--dim",
-            "3",
-            "--domain",
+            &["the domain is about 0.0492 across along z, less than h0 = 0.1: no tetrahedron fits across it"],
+        ),
+        (
             "dintersect(dbox(x,y,z,0.034,0.641,-0.337,0.206,-0.515,0.255),dbox(x,y,z,-0.158,0.311,0.199,0.952,-0.245,0.426))",
-            "--h0",
-            "0.1",
-            "--bbox",
             "-1.5,-1.5,-1.5,1.5,1.5,1.5",
-            "-o",
-            "a.vtu",
-        ],
-        &["the domain is thinner than h0 = 0.1 across", "give a smaller --h0"],
-    );
-    assert!(!r.stderr.contains("coplanar"));
+            &["the domain is thinner than h0 = 0.1 across", "give a smaller --h0"],
+        ),
+    ];
+    for (domain, bbox, pieces) in thin {
+        let r = refused(
+            &d,
+            &["mesh", "--dim", "3", "--domain", domain, "--h0", "0.1", "--bbox", bbox, "-o", "a.vtu"],
+            pieces,
+        );
+        assert!(!r.stderr.contains("coplanar"));
+    }
     // An h0 larger than the domain.
     refused(
         &d,
