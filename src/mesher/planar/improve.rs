@@ -15,6 +15,20 @@ pub(super) struct Geometry<'a> {
     pub project: &'a (dyn Fn(DVec2) -> Result<Option<DVec2>, Error> + Sync),
     pub fscale: f64,
     pub dt: f64,
+    /// Whether the mesh is in one piece. Collapses, splits, flips and moves keep a mesh in one
+    /// piece or in several, so this is found once, before the search and the polish, and a
+    /// connected mesh's walls (see [`walls`]) need no walk over every vertex per trial.
+    pub connected: bool,
+}
+
+/// The boundary edges a moved boundary node must clear besides its own loop: none in a mesh in
+/// one piece, every boundary edge otherwise (see [`crate::topology::boundary_edges_if_split`]).
+pub(super) fn walls(m: &TriMesh<DVec2>, g: &Geometry) -> Vec<[VertexId; 2]> {
+    if g.connected {
+        Vec::new()
+    } else {
+        crate::topology::boundary_edges_if_split(m)
+    }
 }
 
 /// Triangles below this quality have their edges tried by the search.
@@ -390,7 +404,7 @@ pub(super) fn relax(m: &mut TriMesh<DVec2>, g: &Geometry, seeds: &[VertexId], sc
             }
         }
     }
-    let walls = crate::topology::boundary_edges_if_split(m);
+    let walls = walls(m, g);
     let mut steps = Vec::with_capacity(nodes.len());
     for _ in 0..RELAX_ITERS {
         steps.clear();

@@ -415,8 +415,13 @@ pub(crate) fn run_moving(
         eprintln!("equilibrium done at {:.3} s, peak {}", t0.elapsed().as_secs_f64(), peak_memory());
     }
     if ctx.metric.is_none() && ctx.internal.is_none() {
-        let geo =
-            improve::Geometry { h: &|p| ctx.h(p), project: &|p| ctx.project(p), fscale: opts.fscale, dt: opts.deltat };
+        let geo = improve::Geometry {
+            h: &|p| ctx.h(p),
+            project: &|p| ctx.project(p),
+            fscale: opts.fscale,
+            dt: opts.deltat,
+            connected: crate::topology::boundary_edges_if_split(&mesh).is_empty(),
+        };
         let changes = if start.is_none() { improve::search(&mut mesh, &geo)? } else { 0 };
         if trace {
             eprintln!("search: {changes} local changes, done at {:.3} s", t0.elapsed().as_secs_f64());

@@ -195,7 +195,7 @@ pub(super) fn polish_nodes(
     let budget = if whole.is_some() { f64::INFINITY } else { st.dev_with(0.0, 0.0) };
     let q_floor = whole.map_or_else(|| st.q.values().copied().fold(f64::INFINITY, f64::min), |w| w.qmin);
     let mut steps: SecondaryMap<VertexId, f64> = SecondaryMap::new();
-    let walls = crate::topology::boundary_edges_if_split(m);
+    let walls = super::improve::walls(m, g);
     // Nodes whose last try failed or gained less than MOVE_GAIN, and whose neighbours have not
     // gained more since: a new try would do about as little.
     let mut idle: SecondaryMap<VertexId, ()> = SecondaryMap::new();
