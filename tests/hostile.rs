@@ -194,6 +194,27 @@ fn cases() -> Vec<Case> {
     ] {
         v.push(case("sharp and thin", label, &format!("mesh --domain '{dom}' --bbox {bbox} --h0 {h0}")));
     }
+    // Random shapes whose runs went wrong (tests/random_shapes_2d.rs has them as tests).
+    for (args, label) in [
+        (
+            "mesh --domain 'dunion(ddiff(dintersect(dpoly(x,y,0.405,0.472,0.246,0.555,0.087,0.495,-0.025,0.558,0.248,0.164,0.229,0.231),dpoly(x,y,0.123,0.559,0.041,0.287,0.293,0.367)),dcircle(x,y,0.571,0.302,0.465)),dpoly(x,y,-0.137,0.032,-0.251,0.081,-0.581,0.045,-0.568,-0.093,-0.444,-0.187,-0.231,-0.117,-0.183,-0.055))' --size '1+0.52*(x+1)' --h0 0.05 --bbox -1,-1,1,1",
+            "a sliver narrower than h0 with sharp corners beside a polygon",
+        ),
+        (
+            "mesh --domain 'ddiff(dunion(dcircle(x,y,0,0,0.7),drectangle(x,y,-0.2,0.9,-0.3,0.3)),dcircle(x,y,0.3,0.2,0.15))' --size '1+2*sqrt(x^2+y^2)' --h0 0.03 --bbox -1,-1,1,1",
+            "a disc and a rectangle less a small disc, graded",
+        ),
+        (
+            "mesh --domain 'ddiff(dpoly(x,y,0.050,0.386,-0.115,0.348,-0.182,0.241,0.094,0.231),drectangle(x,y,0.241,0.751,-0.081,0.249))' --h0 0.08 --bbox -1.5,-1.5,1.5,1.5 --max-iter 5",
+            "a quadrilateral 3.5 by 2 h0, 5 iterations",
+        ),
+        (
+            "mesh --dim 3 --domain 'dintersect(dbox(x,y,z,0.034,0.641,-0.337,0.206,-0.515,0.255),dbox(x,y,z,-0.158,0.311,0.199,0.952,-0.245,0.426))' --h0 0.1 --bbox -1.5,-1.5,-1.5,1.5,1.5,1.5",
+            "3-D, two boxes overlapping in a slab 0.007 thick",
+        ),
+    ] {
+        v.push(case("random shapes", label, args));
+    }
     // Metrics.
     for (m, label) in [("1;0;1", "isotropic"), ("100;0;1", "10:1"), ("-1;0;1", "not positive"), ("1;2;1", "indefinite")]
     {
