@@ -14,6 +14,14 @@ pub(super) const SETTLE: f64 = 5e-4;
 /// rose less than this above the best before it in PLATEAU_WINDOWS windows in a row.
 pub(super) const QUALITY_PLATEAU: f64 = 1e-6;
 pub(super) const PLATEAU_WINDOWS: usize = 30;
+/// The run also stops when the mean quality's deficit 1 - q mean fell by less than STALL_GAIN
+/// of itself over STALL_WINDOWS windows: a slow mode of the truss (a lattice creeping to fit a
+/// straight side, a flip travelling along it) that the forces would take hundreds of
+/// iterations more to settle, for a gain the final search and polish give anyway. The seed's
+/// rest test "is sometimes too tight, and a high-quality mesh is often achieved long before
+/// termination" (seed section 2.3, step 8), and it ends such runs on element qualities.
+pub(super) const STALL_GAIN: f64 = 0.1;
+pub(super) const STALL_WINDOWS: usize = 20;
 /// With a metric, density control splits above and collapses below these metric lengths
 /// (wider bands leave the truss too coarse inside and too crowded in a boundary layer).
 pub(super) const METRIC_BAND: DensityBand = DensityBand::new(1.45, 0.65);
@@ -42,6 +50,8 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     let mut munit = 1.0;
     let mut slots: Vec<u32> = Vec::new();
     let mut plateau = truss::Plateau::every_window(QUALITY_PLATEAU, PLATEAU_WINDOWS);
+    // The deficit 1 - q mean on a log scale: a gain of STALL_GAIN is a fall of that fraction.
+    let mut stall = truss::Plateau::since_mark(-(1.0 - STALL_GAIN).ln(), STALL_WINDOWS, f64::NEG_INFINITY);
     let mut rebuilds = 0usize;
     let mut stop = StopReason::IterationCap { max_iter: opts.max_iter };
     let mut iter = 0;
@@ -460,15 +470,16 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         }
         if iter % window == 0 {
             let q = mean_quality(ctx, &snap, &p);
+            let mut q_min = f64::NAN;
             if !ctx.freezing {
-                let q_min = state_q_min(ctx, &snap, &p);
+                q_min = state_q_min(ctx, &snap, &p);
                 #[cfg(test)]
                 super::best::OFFERED.with(|o| o.borrow_mut().push((iter, q_min)));
                 best.offer(m, &snap, &p, q_min, iter);
             }
             if std::env::var_os("TRUSSMESH_TRACE").is_some() {
                 eprintln!(
-                    "iter {iter}: q mean {q:.5}, max move {max_move:.2e}, {} vertices, flips {} splits {} collapses {} left {} joined {}",
+                    "iter {iter}: q mean {q:.5}, q min {q_min:.4}, max move {max_move:.2e}, {} vertices, flips {} splits {} collapses {} left {} joined {}",
                     p.len(),
                     ctx.report.ops.flips,
                     ctx.report.ops.splits,
@@ -478,6 +489,12 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 );
             }
             if plateau.reached(q) {
+                stop = StopReason::QualityPlateau;
+                break;
+            }
+            // Not with a metric or from a previous mesh: their runs are short, and their
+            // density bands keep edges moving that a fresh isotropic truss would have settled.
+            if metric.is_none() && !ctx.from_previous && stall.reached(-(1.0 - q).max(f64::MIN_POSITIVE).ln()) {
                 stop = StopReason::QualityPlateau;
                 break;
             }
