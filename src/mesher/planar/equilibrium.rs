@@ -478,6 +478,18 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 best.offer(m, &snap, &p, q_min, iter);
             }
             if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+                // Where the worst triangle is, and what its corners are.
+                let worst = (0..snap.tris.len())
+                    .min_by(|&x, &y| {
+                        let q = |t: usize| ctx.tri_q(snap.tris[t].map(|v| p[v as usize]));
+                        q(x).total_cmp(&q(y))
+                    })
+                    .map(|t| snap.tris[t]);
+                if let Some(t) = worst {
+                    let c = t.iter().map(|&v| p[v as usize]).sum::<DVec2>() / 3.0;
+                    let kinds = t.map(|v| (snap.kind[v as usize], snap.adj_start[v as usize + 1] - snap.adj_start[v as usize]));
+                    eprintln!("  worst triangle at ({:.4}, {:.4}): corners (kind, valence) {kinds:?}", c.x, c.y);
+                }
                 eprintln!(
                     "iter {iter}: q mean {q:.5}, q min {q_min:.4}, max move {max_move:.2e}, {} vertices, flips {} splits {} collapses {} left {} joined {}",
                     p.len(),
