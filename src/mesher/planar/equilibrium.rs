@@ -22,6 +22,10 @@ pub(super) const PLATEAU_WINDOWS: usize = 30;
 /// termination" (seed section 2.3, step 8), and it ends such runs on element qualities.
 pub(super) const STALL_GAIN: f64 = 0.1;
 pub(super) const STALL_WINDOWS: usize = 20;
+/// ... and only while the largest step is below STALL_MOVE times dptol: the slow modes hover
+/// just above it, while a graded run still relaxing takes larger steps (stopped early, it
+/// leaves the search more to do, and the whole run is no faster).
+pub(super) const STALL_MOVE: f64 = 3.0;
 /// With a metric, density control splits above and collapses below these metric lengths
 /// (wider bands leave the truss too coarse inside and too crowded in a boundary layer).
 pub(super) const METRIC_BAND: DensityBand = DensityBand::new(1.45, 0.65);
@@ -487,7 +491,8 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                     .map(|t| snap.tris[t]);
                 if let Some(t) = worst {
                     let c = t.iter().map(|&v| p[v as usize]).sum::<DVec2>() / 3.0;
-                    let kinds = t.map(|v| (snap.kind[v as usize], snap.adj_start[v as usize + 1] - snap.adj_start[v as usize]));
+                    let kinds =
+                        t.map(|v| (snap.kind[v as usize], snap.adj_start[v as usize + 1] - snap.adj_start[v as usize]));
                     eprintln!("  worst triangle at ({:.4}, {:.4}): corners (kind, valence) {kinds:?}", c.x, c.y);
                 }
                 eprintln!(
@@ -506,7 +511,11 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             }
             // Not with a metric or from a previous mesh: their runs are short, and their
             // density bands keep edges moving that a fresh isotropic truss would have settled.
-            if metric.is_none() && !ctx.from_previous && stall.reached(-(1.0 - q).max(f64::MIN_POSITIVE).ln()) {
+            if metric.is_none()
+                && !ctx.from_previous
+                && stall.reached(-(1.0 - q).max(f64::MIN_POSITIVE).ln())
+                && max_move < STALL_MOVE * opts.dptol
+            {
                 stop = StopReason::QualityPlateau;
                 break;
             }
