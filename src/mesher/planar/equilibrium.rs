@@ -22,9 +22,9 @@ pub(super) const PLATEAU_WINDOWS: usize = 30;
 /// termination" (seed section 2.3, step 8), and it ends such runs on element qualities.
 pub(super) const STALL_GAIN: f64 = 0.1;
 pub(super) const STALL_WINDOWS: usize = 20;
-/// ... and only while the largest step is below STALL_MOVE times dptol: the slow modes hover
-/// just above it, while a graded run still relaxing takes larger steps (stopped early, it
-/// leaves the search more to do, and the whole run is no faster).
+/// The stall rule stops a run only while its largest step is below STALL_MOVE times dptol: the
+/// slow modes hover just above dptol, while a graded run still relaxing takes larger steps
+/// (stopped early, it leaves the search more to do, and the whole run is no faster).
 pub(super) const STALL_MOVE: f64 = 3.0;
 /// With a metric, density control splits above and collapses below these metric lengths
 /// (wider bands leave the truss too coarse inside and too crowded in a boundary layer).
@@ -509,9 +509,11 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 stop = StopReason::QualityPlateau;
                 break;
             }
-            // Not with a metric or from a previous mesh: their runs are short, and their
-            // density bands keep edges moving that a fresh isotropic truss would have settled.
+            // Not with a metric or from a previous mesh (short runs, whose density bands keep
+            // edges moving that a fresh isotropic truss would have settled), nor with internal
+            // curves (no search or polish follows the loop there).
             if metric.is_none()
+                && ctx.internal.is_none()
                 && !ctx.from_previous
                 && stall.reached(-(1.0 - q).max(f64::MIN_POSITIVE).ln())
                 && max_move < STALL_MOVE * opts.dptol
