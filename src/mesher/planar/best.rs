@@ -24,13 +24,19 @@ pub(super) struct BestState {
 }
 
 /// The smallest triangle quality of the state (`ctx`'s measure: q, or with a metric q in M).
-/// The minimum of a parallel reduction is the same for any thread count.
 pub(super) fn state_q_min(ctx: &Ctx, snap: &Snapshot, p: &[DVec2]) -> f64 {
+    state_worst(ctx, snap, p).0
+}
+
+/// The smallest triangle quality of the state and the index of its triangle in `snap.tris`
+/// (the first of equals, so the same for any thread count; `usize::MAX` with no triangle).
+pub(super) fn state_worst(ctx: &Ctx, snap: &Snapshot, p: &[DVec2]) -> (f64, usize) {
     snap.tris
         .par_iter()
+        .enumerate()
         .with_min_len(CHUNK)
-        .map(|&[a, b, c]| ctx.tri_q([p[a as usize], p[b as usize], p[c as usize]]))
-        .reduce(|| f64::INFINITY, f64::min)
+        .map(|(k, &[a, b, c])| (ctx.tri_q([p[a as usize], p[b as usize], p[c as usize]]), k))
+        .reduce(|| (f64::INFINITY, usize::MAX), |x, y| if y.0 < x.0 || (y.0 == x.0 && y.1 < x.1) { y } else { x })
 }
 
 impl BestState {

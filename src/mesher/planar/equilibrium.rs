@@ -1,4 +1,4 @@
-use super::best::{state_q_min, BestState};
+use super::best::{state_q_min, state_worst, BestState};
 use super::*;
 use crate::mesher::StopReason;
 
@@ -474,22 +474,18 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         }
         if iter % window == 0 {
             let q = mean_quality(ctx, &snap, &p);
-            let mut q_min = f64::NAN;
+            let trace = std::env::var_os("TRUSSMESH_TRACE").is_some();
+            // Runs with frozen nodes keep no best state: the pass is for the trace only there.
+            let (q_min, worst) =
+                if !ctx.freezing || trace { state_worst(ctx, &snap, &p) } else { (f64::NAN, usize::MAX) };
             if !ctx.freezing {
-                q_min = state_q_min(ctx, &snap, &p);
                 #[cfg(test)]
                 super::best::OFFERED.with(|o| o.borrow_mut().push((iter, q_min)));
                 best.offer(m, &snap, &p, q_min, iter);
             }
-            if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+            if trace {
                 // Where the worst triangle is, and what its corners are.
-                let worst = (0..snap.tris.len())
-                    .min_by(|&x, &y| {
-                        let q = |t: usize| ctx.tri_q(snap.tris[t].map(|v| p[v as usize]));
-                        q(x).total_cmp(&q(y))
-                    })
-                    .map(|t| snap.tris[t]);
-                if let Some(t) = worst {
+                if let Some(&t) = snap.tris.get(worst) {
                     let c = t.iter().map(|&v| p[v as usize]).sum::<DVec2>() / 3.0;
                     let kinds =
                         t.map(|v| (snap.kind[v as usize], snap.adj_start[v as usize + 1] - snap.adj_start[v as usize]));
