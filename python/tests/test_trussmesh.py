@@ -79,20 +79,22 @@ CLI = {
     "ex3a": (197, 0.828, 0.979),
     "ex3b": (285, 0.828, 0.973),
     "ex4": (263, 0.892, 0.987),
-    "ex5": (254, 0.857, 0.984),
+    "ex5": (216, 0.798, 0.976),
     "ex6": (302, 0.900, 0.989),
     "ex7": (854, 0.862, 0.991),
     "ex8": (1121, 0.824, 0.987),
     "ellipse": (186, 0.907, 0.988),
-    "fig3-5": (1917, 0.667, 0.978),
+    "fig3-5": (1923, 0.663, 0.979),
 }
 
 
-# Since the 2-D stall rule the sampled callable and the command line part more on two
-# examples than the perturbation spread allows: ex5 gets q min 0.806 and q mean 0.9818 through
-# the callable (the command line 0.857 and 0.9835), ex6 q min 0.867 (the command line 0.900).
+# The sampled callable and the command line part more on two examples than the perturbation
+# spread allows. ex5 (since the carve joins pinched fans at the resolution): the callable gives
+# 246 nodes, q min 0.822 and q mean 0.9789, the command line 216 nodes, 0.798 and 0.976 (the node
+# counts 14% apart, where 6% is allowed). ex6 (since the 2-D stall rule): q min 0.867 through the
+# callable, 0.900 on the command line.
 SPREAD_EXCEEDED = {
-    "ex5": "open: ex5's q min through the sampled callable is 0.05 below the command line's (0.806 for 0.857)",
+    "ex5": "open: ex5 through the sampled callable has 14% more nodes than on the command line (246 for 216)",
     "ex6": "open: ex6's q min through the sampled callable is 0.033 below the command line's (0.867 for 0.900)",
 }
 

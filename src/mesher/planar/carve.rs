@@ -64,6 +64,11 @@ pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Resu
         }
     }
     keep = open_closed_corners(ctx, &points, &fixed, keep)?;
+    keep = join_pinched_fans(ctx, &points, &tris, &fixed, keep, |t| {
+        if !one_label {
+            keep_label.insert(tris[t], labels[t]);
+        }
+    })?;
     keep = drop_islands(&keep, &inside);
     // Pinched vertices (two fans) would break the manifold structure: drop the triangles of
     // every fan but the largest, and repeat until none is left.
@@ -137,6 +142,89 @@ pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Resu
     internal::tag_interface(&mut out);
     restore_fixed(ctx, &mut out)?;
     Ok(out)
+}
+
+/// Rounds of [`join_pinched_fans`] at most (each can pinch the next vertex along a thin part).
+const JOIN_ROUNDS: usize = 16;
+
+/// How far outside d = 0 a vertex of a triangle taken back by [`join_pinched_fans`] may lie,
+/// in the triangle's shortest sides: the projection onto d = 0 then moves it a little. A vertex
+/// deeper out (inside a hole the lattice is coarse over) would leave its triangle over the hole.
+const JOIN_REACH: f64 = 0.25;
+
+/// [`join_pinched_fans`] joins only where the element size is within this many h0: there the
+/// part is narrow at the resolution, and nothing else would mesh it. Where the requested size is
+/// wider, the pinch is cut as before, and a part it leaves out is meshed again with the size
+/// capped by the local feature size (see `gaps`), which resolves it with two elements across.
+const RESOLUTION: f64 = super::coverage::BY_SIZE;
+
+/// Whether every point of `t` has d below `reach`.
+fn within(ctx: &Ctx, t: [DVec2; 3], reach: f64) -> Result<bool, Error> {
+    for p in t {
+        if ctx.d(p)? >= reach {
+            return Ok(false);
+        }
+    }
+    Ok(true)
+}
+
+/// Keeping only the triangles of inside vertices is stricter than the seed's rule, which keeps
+/// every triangle of the inside points whose centroid is inside (section 2.2): where the domain
+/// is about two lattice rows wide, the kept triangles touch only at vertices (pinched) and the
+/// part falls into pieces that the force loop, with no global retriangulation, never joins
+/// again. At each pinched vertex where the size is at the resolution ([`RESOLUTION`]), the
+/// start's own triangles around it whose centroid is inside are taken back, closing the gaps
+/// between its fans; their vertices outside (within [`JOIN_REACH`] of d = 0) are boundary nodes
+/// that the loop projects onto d = 0. Triangles at a held point are left as decided
+/// (by their centroid, and opened over a hole's corner). `taken` is told the index in `all` of
+/// each triangle taken back.
+fn join_pinched_fans(
+    ctx: &Ctx,
+    points: &[DVec2],
+    all: &[[usize; 3]],
+    fixed: &[bool],
+    mut keep: Vec<[usize; 3]>,
+    mut taken: impl FnMut(usize),
+) -> Result<Vec<[usize; 3]>, Error> {
+    // Not with a metric: its start is a stretched lattice, whose triangles at a pinch reach
+    // far across the boundary along the long axis.
+    if ctx.metric.is_some() {
+        return Ok(keep);
+    }
+    let mut pinched = pinched_vertices(points.len(), &keep);
+    if pinched.is_empty() {
+        return Ok(keep);
+    }
+    let around = Incidence::new(points.len(), all);
+    let mut kept: std::collections::HashSet<[usize; 3]> = keep.iter().copied().collect();
+    for _ in 0..JOIN_ROUNDS {
+        let mut added = false;
+        for &v in &pinched {
+            for &t in around.of(v) {
+                let tri = all[t as usize];
+                if kept.contains(&tri) || tri.iter().any(|&i| fixed[i]) {
+                    continue;
+                }
+                let [a, b, c] = tri.map(|i| points[i]);
+                let reach = JOIN_REACH * a.distance(b).min(b.distance(c)).min(c.distance(a));
+                let centre = (a + b + c) / 3.0;
+                if ctx.h(centre)? <= RESOLUTION && ctx.d(centre)? < -ctx.geps && within(ctx, [a, b, c], reach)? {
+                    kept.insert(tri);
+                    keep.push(tri);
+                    taken(t as usize);
+                    added = true;
+                }
+            }
+        }
+        if !added {
+            break;
+        }
+        pinched = pinched_vertices(points.len(), &keep);
+        if pinched.is_empty() {
+            break;
+        }
+    }
+    Ok(keep)
 }
 
 /// Directions sampled around a fixed vertex whose fan closed, to find where the outside is.

@@ -22,9 +22,13 @@ pub(super) const PLATEAU_WINDOWS: usize = 30;
 /// termination" (seed section 2.3, step 8), and it ends such runs on element qualities.
 pub(super) const STALL_GAIN: f64 = 0.1;
 pub(super) const STALL_WINDOWS: usize = 20;
-/// The stall rule stops a run only while its largest step is below STALL_MOVE times dptol: the
-/// slow modes hover just above dptol, while a graded run still relaxing takes larger steps
-/// (stopped early, it leaves the search more to do, and the whole run is no faster).
+/// The stall rule stops a run only while its largest step is below STALL_MOVE times dptol, or
+/// its nodes are at rest on the whole: no node got farther than dptol per iteration over the
+/// window (its net move over the window's iterations). The slow modes creep just above dptol,
+/// while a graded run still relaxing takes larger steps (stopped early, it leaves the search
+/// more to do, and the whole run is no faster); a node swinging back and forth by a fixed step
+/// (a boundary node stepping inside and projected back, every other step) gets nowhere, and
+/// no longer holds the run to the iteration cap.
 pub(super) const STALL_MOVE: f64 = 3.0;
 /// With a metric, density control splits above and collapses below these metric lengths
 /// (wider bands leave the truss too coarse inside and too crowded in a boundary layer).
@@ -56,6 +60,12 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     let mut plateau = truss::Plateau::every_window(QUALITY_PLATEAU, PLATEAU_WINDOWS);
     // The deficit 1 - q mean on a log scale: a gain of STALL_GAIN is a fall of that fraction.
     let mut stall = truss::Plateau::since_mark(-(1.0 - STALL_GAIN).ln(), STALL_WINDOWS, f64::NEG_INFINITY);
+    // Not with a metric or from a previous mesh (short runs, whose density bands keep edges
+    // moving that a fresh isotropic truss would have settled), nor with internal curves (no
+    // search or polish follows the loop there).
+    let stall_applies = metric.is_none() && ctx.internal.is_none() && !ctx.from_previous;
+    let mut drift_start: Vec<DVec2> = if stall_applies { p.clone() } else { Vec::new() };
+    let mut drift_from = 0usize;
     let mut rebuilds = 0usize;
     let mut stop = StopReason::IterationCap { max_iter: opts.max_iter };
     let mut iter = 0;
@@ -79,7 +89,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     let mut tri_marks = Marks::default();
     let mut swept = 0usize;
     let mut build_s = 0.0;
-    let (mut full_s, mut part_s, mut full_n) = (0.0, 0.0, 0usize);
+    let (mut full_s, mut part_s, mut full_n, mut end_s) = (0.0, 0.0, 0usize, 0.0);
     // The best state met, for the iteration cap (not in a moving-mesh step with frozen nodes,
     // whose vertex keys must survive the loop).
     let mut best = BestState::default();
@@ -446,7 +456,26 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             full_n += 1;
         } else {
             part_s += el_s;
+            if iter % window == 0 {
+                end_s += el_s;
+            }
         }
+        // The stall rule's net motion, at the end of a window: the largest move since the window
+        // began (or the snapshot was rebuilt), per iteration. A node swinging between two places
+        // takes steps of a fixed size forever and gets nowhere.
+        let drift = if stall_applies && iter % window == 0 {
+            let span = (iter - drift_from) as f64;
+            let far = (0..p.len())
+                .into_par_iter()
+                .with_min_len(CHUNK)
+                .map(|i| p[i].distance(drift_start[i]) / (h0 * hv[i]))
+                .reduce(|| 0.0, f64::max);
+            drift_start.copy_from_slice(&p);
+            drift_from = iter;
+            far / span.max(1.0)
+        } else {
+            f64::INFINITY
+        };
         if topo_changed {
             rebuilds += 1;
             let tb = Instant::now();
@@ -458,6 +487,10 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             p = snap.ids.iter().map(|&v| m.pos(v)).collect();
             pold = p.clone();
             newp = p.clone();
+            if stall_applies {
+                drift_start = p.clone();
+                drift_from = iter;
+            }
             need_full = true;
             hv = vec![1.0; p.len()];
             if metric.is_some() {
@@ -505,14 +538,9 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 stop = StopReason::QualityPlateau;
                 break;
             }
-            // Not with a metric or from a previous mesh (short runs, whose density bands keep
-            // edges moving that a fresh isotropic truss would have settled), nor with internal
-            // curves (no search or polish follows the loop there).
-            if metric.is_none()
-                && ctx.internal.is_none()
-                && !ctx.from_previous
+            if stall_applies
                 && stall.reached(-(1.0 - q).max(f64::MIN_POSITIVE).ln())
-                && max_move < STALL_MOVE * opts.dptol
+                && (max_move < STALL_MOVE * opts.dptol || drift < opts.dptol)
             {
                 stop = StopReason::QualityPlateau;
                 break;
@@ -521,7 +549,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     }
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         eprintln!(
-            "{rebuilds} snapshot rebuilds ({build_s:.3} s) in {iter} iterations, {:.1} full sweeps of force work; {full_n} full steps {full_s:.3} s, {} partial {part_s:.3} s (mean active {:.0})",
+            "{rebuilds} snapshot rebuilds ({build_s:.3} s) in {iter} iterations, {:.1} full sweeps of force work; {full_n} full steps {full_s:.3} s, {} partial {part_s:.3} s (mean active {:.0}; window ends {end_s:.3} s)",
             swept as f64 / p.len().max(1) as f64,
             iter - full_n,
             swept.saturating_sub(full_n * p.len()) as f64 / (iter - full_n).max(1) as f64
