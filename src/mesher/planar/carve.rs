@@ -64,6 +64,11 @@ pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Resu
         }
     }
     keep = open_closed_corners(ctx, &points, &fixed, keep)?;
+    keep = bridge_pieces(ctx, &points, &tris, &fixed, keep, |t| {
+        if !one_label {
+            keep_label.insert(tris[t], labels[t]);
+        }
+    })?;
     keep = join_pinched_fans(ctx, &points, &tris, &fixed, keep, |t| {
         if !one_label {
             keep_label.insert(tris[t], labels[t]);
@@ -157,6 +162,158 @@ const JOIN_REACH: f64 = 0.25;
 /// wider, the pinch is cut as before, and a part it leaves out is meshed again with the size
 /// capped by the local feature size (see `gaps`), which resolves it with two elements across.
 const RESOLUTION: f64 = super::coverage::BY_SIZE;
+
+/// Breadth-first steps of [`bridge_pieces`] at most: pieces farther apart than this many
+/// triangles are not joined.
+const BRIDGE_STEPS: usize = 6;
+
+/// Whether the start's triangle `t` may be taken back by the seed's rule: its centroid inside,
+/// the size there at the resolution ([`RESOLUTION`]), no held point among its corners (their
+/// triangles were decided by the centroid already, and opened over a hole's corner), and its
+/// vertices outside within [`JOIN_REACH`] of d = 0.
+fn takes_back(ctx: &Ctx, points: &[DVec2], fixed: &[bool], t: [usize; 3]) -> Result<bool, Error> {
+    if t.iter().any(|&i| fixed[i]) {
+        return Ok(false);
+    }
+    let [a, b, c] = t.map(|i| points[i]);
+    let reach = JOIN_REACH * a.distance(b).min(b.distance(c)).min(c.distance(a));
+    let centre = (a + b + c) / 3.0;
+    Ok(ctx.h(centre)? <= RESOLUTION && ctx.d(centre)? < -ctx.geps && within(ctx, [a, b, c], reach)?)
+}
+
+/// The triangles of `all` sharing an edge with triangle `t`.
+fn across<'a>(all: &'a [[usize; 3]], around: &'a Incidence, t: usize) -> impl Iterator<Item = usize> + 'a {
+    let tri = all[t];
+    (0..3).flat_map(move |k| {
+        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+        around.of(a).iter().map(|&u| u as usize).filter(move |&u| u != t && all[u].contains(&b))
+    })
+}
+
+/// Where a part is narrower than about two lattice rows, keeping only the triangles of inside
+/// vertices leaves it in pieces that do not even touch (a ring 1.6 h0 wide came out in up to
+/// 28), and the force loop never joins pieces again. The seed's rule keeps every triangle with
+/// its centroid inside (section 2.2): from every piece at once, the start's triangles that rule
+/// would keep ([`takes_back`]) are walked breadth first, and where two walks from different
+/// pieces meet, the triangles of both walks back to their pieces are taken back, joining them.
+/// Pieces that no such walk of [`BRIDGE_STEPS`] triangles joins (separate parts of the domain)
+/// stay apart. `taken` is told the index in `all` of each triangle taken back.
+fn bridge_pieces(
+    ctx: &Ctx,
+    points: &[DVec2],
+    all: &[[usize; 3]],
+    fixed: &[bool],
+    mut keep: Vec<[usize; 3]>,
+    mut taken: impl FnMut(usize),
+) -> Result<Vec<[usize; 3]>, Error> {
+    if ctx.metric.is_some() || keep.len() < 2 {
+        return Ok(keep);
+    }
+    // Pieces of the kept triangles (sharing edges), and their rim: the kept triangles with an
+    // edge no other kept triangle shares, the only ones next to anything else.
+    let kept_around = Incidence::new(points.len(), &keep);
+    let mut pieces = crate::topology::DisjointSets::new(keep.len());
+    let mut rim: Vec<usize> = Vec::new();
+    for t in 0..keep.len() {
+        let mut shared = 0;
+        for u in across(&keep, &kept_around, t) {
+            pieces.join(t, u);
+            shared += 1;
+        }
+        if shared < 3 {
+            rim.push(t);
+        }
+    }
+    let around = Incidence::new(points.len(), all);
+    // For each triangle of `all` a walk reached: the kept triangle (index into `keep`) it came
+    // from, and the triangle before it (none for a kept one).
+    let mut label: crate::FastMap<usize, usize> = crate::FastMap::default();
+    let mut parent: crate::FastMap<usize, usize> = crate::FastMap::default();
+    let mut frontier: Vec<usize> = Vec::new();
+    for &k in &rim {
+        let tri = keep[k];
+        if let Some(&t) = around.of(tri[0]).iter().find(|&&u| all[u as usize] == tri) {
+            label.insert(t as usize, k);
+            frontier.push(t as usize);
+        }
+    }
+    let kept_count = keep.len();
+    let mut checked: crate::FastMap<usize, bool> = crate::FastMap::default();
+    let mut added: std::collections::HashSet<usize> = std::collections::HashSet::new();
+    for _ in 0..BRIDGE_STEPS {
+        let mut next = Vec::new();
+        for &t in &frontier {
+            for u in across(all, &around, t).collect::<Vec<_>>() {
+                if let Some(&b) = label.get(&u) {
+                    // Two walks meet: join their pieces through both, or close a gap in one
+                    // piece (a ring cut open) whose sides are far apart within it.
+                    let a = label[&t];
+                    let gap = a != b
+                        && pieces.root(a) == pieces.root(b)
+                        && !near_within(&keep[..kept_count], &kept_around, a, b);
+                    if pieces.join(a, b) || gap {
+                        for mut w in [t, u] {
+                            while let Some(&p) = parent.get(&w) {
+                                if added.insert(w) {
+                                    keep.push(all[w]);
+                                    taken(w);
+                                }
+                                w = p;
+                            }
+                        }
+                    }
+                    continue;
+                }
+                // (A kept triangle off the rim is never reached: its neighbours are all kept.)
+                let ok = match checked.get(&u) {
+                    Some(&ok) => ok,
+                    None => {
+                        let ok = takes_back(ctx, points, fixed, all[u])?;
+                        checked.insert(u, ok);
+                        ok
+                    }
+                };
+                if ok {
+                    label.insert(u, label[&t]);
+                    parent.insert(u, t);
+                    next.push(u);
+                }
+            }
+        }
+        if next.is_empty() {
+            break;
+        }
+        frontier = next;
+    }
+    Ok(keep)
+}
+
+/// Whether kept triangles `a` and `b` are within 2 [`BRIDGE_STEPS`] + 2 triangles of each
+/// other through the kept triangles (vertex neighbours): two walks from such triangles meet
+/// along an ordinary stretch of boundary, while the two sides of a gap in one piece are far
+/// apart around it.
+fn near_within(keep: &[[usize; 3]], around: &Incidence, a: usize, b: usize) -> bool {
+    let mut seen = std::collections::HashSet::from([a]);
+    let mut frontier = vec![a];
+    for _ in 0..2 * BRIDGE_STEPS + 2 {
+        let mut next = Vec::new();
+        for &t in &frontier {
+            for &v in &keep[t] {
+                for &u in around.of(v) {
+                    let u = u as usize;
+                    if u == b {
+                        return true;
+                    }
+                    if seen.insert(u) {
+                        next.push(u);
+                    }
+                }
+            }
+        }
+        frontier = next;
+    }
+    false
+}
 
 /// Whether every point of `t` has d below `reach`.
 fn within(ctx: &Ctx, t: [DVec2; 3], reach: f64) -> Result<bool, Error> {
