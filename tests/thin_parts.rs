@@ -28,6 +28,31 @@ fn area(p: &[DVec2]) -> f64 {
     (0..p.len()).map(|i| 0.5 * p[i].perp_dot(p[(i + 1) % p.len()])).sum()
 }
 
+/// What a test reads off a mesh of `expr` at h0 (uniform size, box [-1, 1]^2): triangles,
+/// boundary loops, area, q min and q mean; or the error.
+struct Meshed {
+    triangles: usize,
+    loops: usize,
+    area: f64,
+    q_min: f64,
+    q_mean: f64,
+}
+
+fn mesh(expr: &str, h0: f64) -> Result<Meshed, String> {
+    let d = ExprImplicit2::new(Expr::parse(expr).expect("parses"));
+    let out = mesh_2d(&d, &Options2::uniform(h0, [-1.0, -1.0], [1.0, 1.0])).map_err(|e| e.to_string())?;
+    let m = &out.mesh;
+    let area = m
+        .face_ids()
+        .map(|f| {
+            let [a, b, c] = m.face_points(f);
+            0.5 * (b - a).perp_dot(c - a)
+        })
+        .sum();
+    let q = &out.report.quality;
+    Ok(Meshed { triangles: m.num_faces(), loops: m.boundary_loops().len(), area, q_min: q.q_min, q_mean: q.q_mean })
+}
+
 #[test]
 fn parts_two_elements_wide_mesh_in_one_piece() {
     println!("| case | h0 | width / h0 | length / h0 | triangles | pieces | area / exact | q min | q mean |");
@@ -43,42 +68,31 @@ fn parts_two_elements_wide_mesh_in_one_piece() {
         let list: Vec<String> = pts.iter().map(|p| format!("{:.4},{:.4}", p.x, p.y)).collect();
         let expr = format!("dpoly(x,y,{})", list.join(","));
         let exact = area(&pts).abs();
-        let d = ExprImplicit2::new(Expr::parse(&expr).expect("parses"));
-        let opts = Options2::uniform(h0, [-1.0, -1.0], [1.0, 1.0]);
-        let out = match mesh_2d(&d, &opts) {
-            Ok(out) => out,
+        let m = match mesh(&expr, h0) {
+            Ok(m) => m,
             Err(e) => {
                 failures.push(format!("case {case}: {e} ({expr}, h0 {h0})"));
                 continue;
             }
         };
-        let m = &out.mesh;
-        let pieces = m.boundary_loops().len();
-        let got: f64 = m
-            .face_ids()
-            .map(|f| {
-                let [a, b, c] = m.face_points(f);
-                0.5 * (b - a).perp_dot(c - a)
-            })
-            .sum();
-        let q = &out.report.quality;
+        let (pieces, got) = (m.loops, m.area);
         println!(
             "| {case} | {h0} | {:.2} | {:.2} | {} | {pieces} | {:.4} | {:.4} | {:.4} |",
             wide / h0,
             len / h0,
-            m.num_faces(),
+            m.triangles,
             got / exact,
-            q.q_min,
-            q.q_mean
+            m.q_min,
+            m.q_mean
         );
         // A convex quadrilateral has one boundary loop, and its corners are found from d and
         // held: the mesh covers it to within 1% (a corner cut off or a piece left out costs
         // more).
-        if pieces != 1 || (got / exact - 1.0).abs() > 0.01 || q.q_min < 0.5 {
+        if pieces != 1 || (got / exact - 1.0).abs() > 0.01 || m.q_min < 0.5 {
             failures.push(format!(
                 "case {case}: {pieces} boundary loops, area {:.4} of the exact, q min {:.4} ({expr}, h0 {h0})",
                 got / exact,
-                q.q_min
+                m.q_min
             ));
         }
     }
@@ -101,41 +115,30 @@ fn rings_two_elements_wide_mesh_in_one_piece() {
         let inner = outer - wide;
         let expr = format!("max(dcircle(x,y,{cx:.4},{cy:.4},{outer:.4}),-dcircle(x,y,{cx:.4},{cy:.4},{inner:.4}))");
         let exact = std::f64::consts::PI * (outer * outer - inner * inner);
-        let d = ExprImplicit2::new(Expr::parse(&expr).expect("parses"));
-        let opts = Options2::uniform(h0, [-1.0, -1.0], [1.0, 1.0]);
-        let out = match mesh_2d(&d, &opts) {
-            Ok(out) => out,
+        let m = match mesh(&expr, h0) {
+            Ok(m) => m,
             Err(e) => {
                 failures.push(format!("case {case}: {e} ({expr}, h0 {h0})"));
                 continue;
             }
         };
-        let m = &out.mesh;
-        let loops = m.boundary_loops().len();
-        let got: f64 = m
-            .face_ids()
-            .map(|f| {
-                let [a, b, c] = m.face_points(f);
-                0.5 * (b - a).perp_dot(c - a)
-            })
-            .sum();
-        let q = &out.report.quality;
+        let (loops, got) = (m.loops, m.area);
         println!(
             "| {case} | {h0} | {:.2} | {outer:.3} | {} | {loops} | {:.4} | {:.4} | {:.4} |",
             wide / h0,
-            m.num_faces(),
+            m.triangles,
             got / exact,
-            q.q_min,
-            q.q_mean
+            m.q_min,
+            m.q_mean
         );
         // The chords of a circle of radius R meshed at h lose about h^2 / (12 R) of area per
         // unit length, against the ring's width: 1.5% at h0 0.08 and R 0.3 for both circles.
         let chords = h0 * h0 / 12.0 * (1.0 / outer + 1.0 / inner.max(h0)) / wide;
-        if loops != 2 || (got / exact - 1.0).abs() > 2.0 * chords + 0.005 || q.q_min < 0.5 {
+        if loops != 2 || (got / exact - 1.0).abs() > 2.0 * chords + 0.005 || m.q_min < 0.5 {
             failures.push(format!(
                 "case {case}: {loops} boundary loops, area {:.4} of the exact (chords {chords:.4}), q min {:.4} ({expr}, h0 {h0})",
                 got / exact,
-                q.q_min
+                m.q_min
             ));
         }
     }

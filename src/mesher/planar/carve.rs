@@ -195,9 +195,11 @@ fn across<'a>(all: &'a [[usize; 3]], around: &'a Incidence, t: usize) -> impl It
 /// 28), and the force loop never joins pieces again. The seed's rule keeps every triangle with
 /// its centroid inside (section 2.2): from every piece at once, the start's triangles that rule
 /// would keep ([`takes_back`]) are walked breadth first, and where two walks from different
-/// pieces meet, the triangles of both walks back to their pieces are taken back, joining them.
-/// Pieces that no such walk of [`BRIDGE_STEPS`] triangles joins (separate parts of the domain)
-/// stay apart. `taken` is told the index in `all` of each triangle taken back.
+/// pieces meet, the triangles of both walks back to their pieces are taken back, joining them;
+/// so are two walks from one piece whose start triangles are far apart within it (the two sides
+/// of a gap, a ring cut open; see [`near_within`]). Pieces that no such walk of
+/// [`BRIDGE_STEPS`] triangles joins (separate parts of the domain) stay apart. `taken` is told
+/// the index in `all` of each triangle taken back.
 fn bridge_pieces(
     ctx: &Ctx,
     points: &[DVec2],
@@ -329,12 +331,10 @@ fn within(ctx: &Ctx, t: [DVec2; 3], reach: f64) -> Result<bool, Error> {
 /// every triangle of the inside points whose centroid is inside (section 2.2): where the domain
 /// is about two lattice rows wide, the kept triangles touch only at vertices (pinched) and the
 /// part falls into pieces that the force loop, with no global retriangulation, never joins
-/// again. At each pinched vertex where the size is at the resolution ([`RESOLUTION`]), the
-/// start's own triangles around it whose centroid is inside are taken back, closing the gaps
-/// between its fans; their vertices outside (within [`JOIN_REACH`] of d = 0) are boundary nodes
-/// that the loop projects onto d = 0. Triangles at a held point are left as decided
-/// (by their centroid, and opened over a hole's corner). `taken` is told the index in `all` of
-/// each triangle taken back.
+/// again. At each pinched vertex, the start's own triangles around it that the seed's rule
+/// keeps ([`takes_back`]) are taken back, closing the gaps between its fans; their vertices
+/// outside are boundary nodes that the loop projects onto d = 0. `taken` is told the index in
+/// `all` of each triangle taken back.
 fn join_pinched_fans(
     ctx: &Ctx,
     points: &[DVec2],
@@ -359,13 +359,7 @@ fn join_pinched_fans(
         for &v in &pinched {
             for &t in around.of(v) {
                 let tri = all[t as usize];
-                if kept.contains(&tri) || tri.iter().any(|&i| fixed[i]) {
-                    continue;
-                }
-                let [a, b, c] = tri.map(|i| points[i]);
-                let reach = JOIN_REACH * a.distance(b).min(b.distance(c)).min(c.distance(a));
-                let centre = (a + b + c) / 3.0;
-                if ctx.h(centre)? <= RESOLUTION && ctx.d(centre)? < -ctx.geps && within(ctx, [a, b, c], reach)? {
+                if !kept.contains(&tri) && takes_back(ctx, points, fixed, tri)? {
                     kept.insert(tri);
                     keep.push(tri);
                     taken(t as usize);
