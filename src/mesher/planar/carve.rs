@@ -69,20 +69,24 @@ pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Resu
             keep_label.insert(tris[t], labels[t]);
         }
     })?;
-    keep = join_pinched_fans(ctx, &points, &tris, &fixed, keep, |t| {
+    let still_pinched;
+    (keep, still_pinched) = join_pinched_fans(ctx, &points, &tris, &fixed, keep, |t| {
         if !one_label {
             keep_label.insert(tris[t], labels[t]);
         }
     })?;
     keep = drop_islands(&keep, &inside);
     // Pinched vertices (two fans) would break the manifold structure: drop the triangles of
-    // every fan but the largest, and repeat until none is left.
-    for _ in 0..64 {
-        let pinched = pinched_vertices(points.len(), &keep);
-        if pinched.is_empty() {
-            break;
+    // every fan but the largest, and repeat until none is left. (Dropping islands, whole
+    // pieces, pinches no vertex: with none left after the join there is nothing to do.)
+    if still_pinched {
+        for _ in 0..64 {
+            let pinched = pinched_vertices(points.len(), &keep);
+            if pinched.is_empty() {
+                break;
+            }
+            keep = drop_small_fans(&keep, &pinched, points.len());
         }
-        keep = drop_small_fans(&keep, &pinched, points.len());
     }
     if keep.is_empty() {
         return Err(Error::EmptyDomain(
@@ -245,7 +249,7 @@ fn bridge_pieces(
     for _ in 0..BRIDGE_STEPS {
         let mut next = Vec::new();
         for &t in &frontier {
-            for u in across(all, &around, t).collect::<Vec<_>>() {
+            for u in across(all, &around, t) {
                 if let Some(&b) = label.get(&u) {
                     // Two walks meet: join their pieces through both, or close a gap in one
                     // piece (a ring cut open) whose sides are far apart within it.
@@ -334,7 +338,8 @@ fn within(ctx: &Ctx, t: [DVec2; 3], reach: f64) -> Result<bool, Error> {
 /// again. At each pinched vertex, the start's own triangles around it that the seed's rule
 /// keeps ([`takes_back`]) are taken back, closing the gaps between its fans; their vertices
 /// outside are boundary nodes that the loop projects onto d = 0. `taken` is told the index in
-/// `all` of each triangle taken back.
+/// `all` of each triangle taken back. Returns the triangles and whether a vertex may still be
+/// pinched.
 fn join_pinched_fans(
     ctx: &Ctx,
     points: &[DVec2],
@@ -342,15 +347,15 @@ fn join_pinched_fans(
     fixed: &[bool],
     mut keep: Vec<[usize; 3]>,
     mut taken: impl FnMut(usize),
-) -> Result<Vec<[usize; 3]>, Error> {
+) -> Result<(Vec<[usize; 3]>, bool), Error> {
     // Not with a metric: its start is a stretched lattice, whose triangles at a pinch reach
     // far across the boundary along the long axis.
     if ctx.metric.is_some() {
-        return Ok(keep);
+        return Ok((keep, true));
     }
     let mut pinched = pinched_vertices(points.len(), &keep);
     if pinched.is_empty() {
-        return Ok(keep);
+        return Ok((keep, false));
     }
     let around = Incidence::new(points.len(), all);
     let mut kept: std::collections::HashSet<[usize; 3]> = keep.iter().copied().collect();
@@ -375,7 +380,8 @@ fn join_pinched_fans(
             break;
         }
     }
-    Ok(keep)
+    let still = !pinched.is_empty();
+    Ok((keep, still))
 }
 
 /// Directions sampled around a fixed vertex whose fan closed, to find where the outside is.
