@@ -26,6 +26,7 @@ const RR_SHARP: f64 = 30.0;
 pub(super) fn crease_points(
     ctx: &Ctx,
     grid: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>,
+    every: &HashMap<[i64; 3], SmallVec<[DVec3; 4]>>,
     gap: f64,
 ) -> Result<Vec<DVec3>, Error> {
     let opts = ctx.opts;
@@ -47,21 +48,7 @@ pub(super) fn crease_points(
                 continue;
             }
             let h1 = if uniform { 1.0 } else { ctx.h(q1)? };
-            // A surface point on the edge itself (the projection of a lattice point as far from
-            // both faces ends there): the normals a hair's breadth away on either side differ.
-            let eps = sharp::PROBE * gap * h1;
-            // Probes a little inside (a distance built from unsigned distances has a kink on
-            // d = 0, where its gradient can be anything), on every side of the point.
-            let probes = [DVec3::X, DVec3::NEG_X, DVec3::Y, DVec3::NEG_Y, DVec3::Z, DVec3::NEG_Z]
-                .map(|e| ctx.domain.gradient(q1 + (e - n1) * eps).normalize_or_zero());
-            // A probe without a normal says nothing.
-            let probes: SmallVec<[DVec3; 6]> = probes.into_iter().filter(|n| n.length_squared() > 0.5).collect();
-            let split = crate::mesher::sharp::widest_split(&probes, DVec3::dot);
-            if let Some((cos, a, b)) = split {
-                if cos < cos_max {
-                    found.push((q1, a, b));
-                }
-            }
+            found.extend(on_edge(ctx, q1, n1, sharp::PROBE * gap * h1));
             let reach = sharp::REACH * gap * h1;
             let span = (reach / gap).ceil() as i64;
             for dz in -span..=span {
@@ -97,6 +84,21 @@ pub(super) fn crease_points(
         Ok((sharp::REACH * gap * h, sharp::TOL * gap * h))
     };
     let corners = sharp::corner_points(ctx, &found, gap, &limits)?;
+    // Every other projected start point on an edge itself: the thinned points can miss a whole
+    // edge (see `initial_mesh`), while the lattice points beyond a convex edge all project onto
+    // it. After the others, so that the thinning below prefers those, and not in the search
+    // for corners (which, given these too, found corners along curved edges).
+    let mut cells: Vec<&[i64; 3]> = every.keys().collect();
+    cells.sort_unstable_by_key(|c| (c[2], c[1], c[0]));
+    for c in cells {
+        for &q in &every[c] {
+            let n = ctx.domain.gradient(q).normalize_or_zero();
+            if n.length_squared() >= 0.5 {
+                let h = if uniform { 1.0 } else { ctx.h(q)? };
+                found.extend(on_edge(ctx, q, n, sharp::PROBE * gap * h));
+            }
+        }
+    }
     let n_corners = corners.len();
     let mut kept: Vec<DVec3> = Vec::new();
     let candidates =
@@ -117,6 +119,20 @@ pub(super) fn crease_points(
         kept.push(p);
     }
     Ok(kept)
+}
+
+/// The surface point `q` (unit normal `n`) with the normals of two faces when it lies on an
+/// edge itself (the projection of a lattice point beyond a convex edge ends there): normals
+/// probed `eps` away on every side, a little inside (a distance built from unsigned distances
+/// has a kink on d = 0, where its gradient can be anything), differ by more than
+/// sharp::SHARP_DEG degrees.
+fn on_edge(ctx: &Ctx, q: DVec3, n: DVec3, eps: f64) -> Option<(DVec3, DVec3, DVec3)> {
+    let probes = [DVec3::X, DVec3::NEG_X, DVec3::Y, DVec3::NEG_Y, DVec3::Z, DVec3::NEG_Z]
+        .map(|e| ctx.domain.gradient(q + (e - n) * eps).normalize_or_zero());
+    // A probe without a normal says nothing.
+    let probes: SmallVec<[DVec3; 6]> = probes.into_iter().filter(|n| n.length_squared() > 0.5).collect();
+    let (cos, a, b) = sharp::widest_split(&probes, DVec3::dot)?;
+    (cos < sharp::SHARP_DEG.to_radians().cos()).then_some((q, a, b))
 }
 
 /// Whether a boundary face around `v` turns more than RR_SHARP degrees from the surface

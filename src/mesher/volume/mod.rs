@@ -145,11 +145,26 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
     // held back; then, if the boundary still folds, from a start lattice shifted by a third of
     // its side (where the boundary folds depends on how the lattice meets the domain's edges).
     let mut r = run_once(domain, opts, false, 0.0);
+    let mut shifted = false;
     for (strict, shift) in [(true, 0.0), (true, START_SHIFT)] {
         if !folded(&r) {
             break;
         }
         r = run_once(domain, opts, strict, shift);
+        shifted = shift != 0.0;
+    }
+    // A mesh with tets flatter than the report's floor: how the start lattice met the domain's
+    // sharp edges decides that too (a flat tet held between points fixed on two edges), so the
+    // shifted start is tried as well and the better of the two kept.
+    let dihedral = |r: &Result<MeshOutput3, Error>| match r {
+        Ok(out) if out.report.quality.dihedral_min.is_finite() => out.report.quality.dihedral_min,
+        _ => f64::NEG_INFINITY,
+    };
+    if !shifted && r.is_ok() && dihedral(&r) < crate::mesher::report::DIHEDRAL_FLOOR {
+        let other = run_once(domain, opts, true, START_SHIFT);
+        if dihedral(&other) > dihedral(&r) {
+            r = other;
+        }
     }
     let mut out = r?;
     out.report.seconds = t0.elapsed().as_secs_f64();

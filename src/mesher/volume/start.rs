@@ -171,6 +171,11 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Erro
     // mesh's boundary then starts on the surface instead of a lattice row inside it.
     let gap = SURFACE_GAP * a;
     let mut grid: HashMap<[i64; 3], SmallVec<[DVec3; 4]>> = HashMap::new();
+    // Every projected point, before the thinning, for the sharp-edge finder: the thinning keeps
+    // the first point near a place in lattice order, and along an edge those can all be points
+    // of one face, with the other face's nearest kept row too far away to pair with them (a
+    // whole edge of a box went unseen and the mesh beside it folded).
+    let mut every: HashMap<[i64; 3], SmallVec<[DVec3; 4]>> = HashMap::new();
     let cell = |p: DVec3| (p / gap).floor().as_i64vec3().to_array();
     // The side of d = 0 each lattice point is on (0: not yet known), for the points far from it.
     let (nx, ny) = (n.x as usize, n.y as usize);
@@ -220,6 +225,9 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Erro
                         pts.push(p + LATTICE_JITTER * a * jitter(pts.len() as u64));
                     } else if d.abs() < a * h {
                         let Some(q) = ctx.project(p)? else { continue };
+                        if opts.sharp_edges {
+                            every.entry(cell(q)).or_default().push(q);
+                        }
                         let hq = if uniform { 1.0 } else { ctx.h(q)? };
                         let r = gap * hq;
                         let c = cell(q);
@@ -248,7 +256,7 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TetMesh, Erro
         }
     }
     let t_crease = Instant::now();
-    let creases = if opts.sharp_edges { crease_points(ctx, &grid, gap)? } else { Vec::new() };
+    let creases = if opts.sharp_edges { crease_points(ctx, &grid, &every, gap)? } else { Vec::new() };
     if ctx.trace {
         eprintln!(
             "start: {} points on sharp edges, held fixed ({:.3} s)",
