@@ -29,6 +29,7 @@ pub mod bezier;
 mod density;
 mod equilibrium;
 mod features;
+mod from_volume;
 pub mod geom;
 mod improve;
 mod options;
@@ -162,9 +163,24 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
                 trace(&e);
                 // Only a surface that was made and failed the check: other errors (a sheet too
                 // thin, a runaway, bad values) would fail again.
-                return match invalid {
-                    Some(m) => held_fallbacks(phi, opts, size, Some(m)).ok_or(e),
-                    None => Err(e),
+                // The 3-D mesh's boundary after that: any closed surface it makes is better
+                // than none.
+                let held = match invalid {
+                    Some(m) => held_fallbacks(phi, opts, size, Some(m)),
+                    None => None,
+                };
+                return match held {
+                    Some(out) => Ok(out),
+                    None => from_volume::from_volume(
+                        phi,
+                        opts,
+                        size,
+                        format!("the surface mesher failed ({e}): this is the boundary of the 3-D mesh of the inside"),
+                    )
+                    .map_err(|e2| {
+                        trace(&e2);
+                        e
+                    }),
                 };
             }
         };
@@ -174,7 +190,7 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
                 let (smooth, e) = *failed;
                 trace(&e);
                 // The other starts next; the smooth mesh is the last resort.
-                held_fallbacks(phi, opts, size, None).unwrap_or_else(|| rounded(smooth, &e))
+                held_fallbacks(phi, opts, size, None).unwrap_or_else(|| volume_or_rounded(phi, opts, size, smooth, &e))
             }
         });
     }
@@ -182,22 +198,44 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
         // No features to hold (none, or turned off): none are looked for in the function.
         return smooth_run(phi, opts, size, None);
     }
-    match mesh_surface_held(phi, opts, size, true, Start::Marched { top: start::MAX_LEVELS }, None)? {
+    let held = match mesh_surface_held(phi, opts, size, true, Start::Marched { top: start::MAX_LEVELS }, None)? {
         Ok(out) => Ok(out),
         Err(e) => {
             trace(&e);
             // The features found from phi cut into the smooth mesh instead, whose even
             // triangles cut more cleanly than the marching start's (as for given features).
-            match held_from_smooth(phi, opts, size, smooth_run(phi, opts, size, None)?) {
-                Ok(out) => Ok(out),
-                Err(failed) => {
-                    let (smooth, e2) = *failed;
-                    trace(&e2);
-                    Ok(rounded(smooth, &e))
+            held_from_smooth(phi, opts, size, smooth_run(phi, opts, size, None)?).map_err(|failed| {
+                let (smooth, e2) = *failed;
+                trace(&e2);
+                (smooth, e)
+            })
+        }
+    };
+    Ok(match held {
+        // Features held, but a triangle sharper than the 3-D mesh's boundary would likely give.
+        Ok(out) if out.report.feature_points > 0 && out.report.quality.min_angle < from_volume::TRY_BELOW_DEG => {
+            let note = format!(
+                "the surface held its sharp edges with a smallest angle of {:.1} degrees; this is the boundary of the 3-D mesh of the inside, which holds them too",
+                out.report.quality.min_angle
+            );
+            match from_volume::from_volume(phi, opts, size, note) {
+                Ok(mut other)
+                    if other.report.quality.min_angle > out.report.quality.min_angle
+                        && other.report.quality.inward_faces <= out.report.quality.inward_faces =>
+                {
+                    other.report.seconds += out.report.seconds;
+                    other
+                }
+                Ok(_) => out,
+                Err(e) => {
+                    trace(&e);
+                    out
                 }
             }
         }
-    }
+        Ok(out) => out,
+        Err((smooth, e)) => volume_or_rounded(phi, opts, size, smooth, &e),
+    })
 }
 
 /// Runs holding the given features from the starts after the smooth mesh, in turn, until one
@@ -294,6 +332,35 @@ fn held_from_smooth(
             Ok(out)
         }
         Ok(Err(e)) | Err(e) => Err(Box::new((smooth, e))),
+    }
+}
+
+/// Holding the sharp features failed from every start: the 3-D mesh's boundary holds them, and
+/// is the result when its triangles are fair (none below TRY_BELOW_DEG degrees, none facing
+/// inward); the smooth mesh, rounding them, is the last resort.
+fn volume_or_rounded(
+    phi: &dyn Implicit3,
+    opts: &SurfaceOptions,
+    size: &SizeField,
+    smooth: SurfaceOutput,
+    e: &Error,
+) -> SurfaceOutput {
+    let note = format!(
+        "the surface has sharp edges, holding them failed ({e}): this is the boundary of the 3-D mesh of the inside, which holds them"
+    );
+    match from_volume::from_volume(phi, opts, size, note) {
+        Ok(mut other)
+            if other.report.quality.min_angle >= from_volume::TRY_BELOW_DEG
+                && other.report.quality.inward_faces == 0 =>
+        {
+            other.report.seconds += smooth.report.seconds;
+            other
+        }
+        Ok(_) => rounded(smooth, e),
+        Err(e2) => {
+            trace_held(&e2);
+            rounded(smooth, e)
+        }
     }
 }
 
@@ -520,6 +587,9 @@ fn mesh_surface_held(
     report.stages = Some(st);
     report.ops = counts;
     report.quality = SurfaceQuality::measure(&m, phi, &size);
+    if held {
+        report.feature_points = m.vertex_ids().filter(|&v| m.tag(v) != VertexTag::Interior).count();
+    }
     if held && report.quality.min_q < HELD_MIN_Q {
         return Ok(Err(Error::internal(format!(
             "holding sharp features left a triangle of quality {:.3}",
