@@ -7,7 +7,7 @@
 
 use glam::DVec3;
 use trussmesh::geometry::{difference, union, Ball, Box3, Cylinder, Implicit3, Shape3, Translate};
-use trussmesh::mesher::{mesh_3d, MeshOutput3, Options3};
+use trussmesh::mesher::{mesh_3d, pinched_boundary_vertices, MeshOutput3, Options3};
 use trussmesh::topology::Level;
 
 /// SplitMix64: the families are the same on every run.
@@ -78,16 +78,21 @@ fn mesh(domain: &dyn Implicit3, i: usize) -> MeshOutput3 {
     out
 }
 
+/// The case's row; a boundary pinched at a vertex must be named in the report.
 fn row(i: usize, out: &MeshOutput3) -> String {
     let q = &out.report.quality;
+    let pinched = pinched_boundary_vertices(&out.mesh).len();
+    let said = out.report.notes.iter().any(|n| n.contains("pinched"));
+    assert_eq!(pinched > 0, said, "case {i}: {pinched} pinched vertices, report notes {:?}", out.report.notes);
     format!(
-        "| {i} | {} | {:.1} | {:.1} | {:.4} | {} | {:.2} |",
+        "| {i} | {} | {:.1} | {:.1} | {:.4} | {} | {pinched} | {:.2} |",
         q.tets, q.dihedral_min, q.dihedral_max, q.rr_mean, out.report.feature_points, out.report.seconds
     )
 }
 
 const HEADER: &str =
-    "| case | tets | min dihedral | max dihedral | rr mean | held on edges | seconds |\n|---|---|---|---|---|---|---|";
+    "| case | tets | min dihedral | max dihedral | rr mean | held on edges | pinched vertices | seconds |\n\
+                      |---|---|---|---|---|---|---|---|";
 
 /// Every box keeps dihedral angles of at least 30 degrees (most reach 38.8, the ball's figure).
 #[test]

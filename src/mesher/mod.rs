@@ -23,7 +23,7 @@ pub use planar::report::{area, boundary_deviation, QualityStats};
 pub use report::{OpCounts, Report, StopReason, SurfaceStages};
 pub use truss::DensityBand;
 pub use volume::options::{Options3, SizeFn3};
-pub use volume::report::{boundary_deviation_3d, QualityStats3};
+pub use volume::report::{boundary_deviation_3d, pinched_boundary_vertices, QualityStats3};
 
 use crate::geometry::{Implicit2, Implicit3};
 use crate::topology::{TetMesh, TriMesh};

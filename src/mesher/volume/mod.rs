@@ -241,6 +241,18 @@ fn run_once(domain: &dyn Implicit3, opts: &Options3, strict_folds: bool, shift: 
         eprintln!("specks dropped");
     }
     ctx.report.boundary_nodes_off = count_off(&ctx, &mesh)?;
+    let pinched = report::pinched_boundary_vertices(&mesh);
+    if let Some(&v) = pinched.first() {
+        let p = mesh.pos(v);
+        ctx.report.notes.push(format!(
+            "the boundary is pinched at {} vertices (two parts of it meet at a vertex alone, first at ({:.4}, {:.4}, {:.4})): \
+             the boundary is no manifold surface there",
+            pinched.len(),
+            p.x,
+            p.y,
+            p.z
+        ));
+    }
     if let Err(e) = mesh.validate(Level::Geometry) {
         return Err(Error::broken("the finished mesh is invalid", e));
     }

@@ -118,3 +118,45 @@ pub fn boundary_deviation_3d(m: &TetMesh, domain: &dyn Implicit3) -> f64 {
         })
         .fold(0.0, f64::max)
 }
+
+/// The boundary vertices where the boundary is pinched: their boundary faces form more than one
+/// fan (joined across the edges from the vertex they share), so two parts of the boundary meet
+/// at that vertex alone and the mesh's boundary is no manifold surface there. Every tet is
+/// still positive and the mesh an embedding; the report says so (see `run_once`).
+pub fn pinched_boundary_vertices(m: &TetMesh) -> Vec<crate::topology::TVertexId> {
+    use std::collections::HashMap;
+    let mut around: HashMap<crate::topology::TVertexId, Vec<[crate::topology::TVertexId; 3]>> = HashMap::new();
+    for (t, i) in m.boundary_faces() {
+        let f = m.face_vertices(t, i);
+        for v in f {
+            around.entry(v).or_default().push(f);
+        }
+    }
+    let mut out: Vec<crate::topology::TVertexId> = around
+        .iter()
+        .filter(|(&v, faces)| {
+            // Union-find over the faces around v.
+            let mut fan: Vec<usize> = (0..faces.len()).collect();
+            fn root(fan: &mut [usize], mut i: usize) -> usize {
+                while fan[i] != i {
+                    fan[i] = fan[fan[i]];
+                    i = fan[i];
+                }
+                i
+            }
+            for i in 0..faces.len() {
+                for j in i + 1..faces.len() {
+                    if faces[i].iter().any(|&w| w != v && faces[j].contains(&w)) {
+                        let (a, b) = (root(&mut fan, i), root(&mut fan, j));
+                        fan[a.max(b)] = a.min(b);
+                    }
+                }
+            }
+            (0..faces.len()).any(|i| root(&mut fan, i) != 0)
+        })
+        .map(|(&v, _)| v)
+        .collect();
+    // HashMap order is not fixed: sorted by position for a deterministic report.
+    out.sort_by(|&a, &b| m.pos(a).to_array().partial_cmp(&m.pos(b).to_array()).unwrap_or(std::cmp::Ordering::Equal));
+    out
+}
