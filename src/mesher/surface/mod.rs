@@ -127,12 +127,14 @@ const PROJECT_TOL: f64 = 1e-9;
 /// Sharp edges and corners of phi = 0 are found and held (`features.rs`), cut into the marching
 /// start; should holding them leave a surface that fails the final check or has a triangle
 /// below quality HELD_MIN_Q, they are cut into the smooth mesh (meshed without them) and held
-/// from there, and failing that too the smooth mesh is the result, its report saying so. A
+/// from there; failing that too, the boundary of the 3-D mesh of the inside when it is fair
+/// (`from_volume.rs`, also tried for a held surface with a triangle below 20 degrees), else
+/// the smooth mesh is the result, its report saying so. A
 /// geometry that gives its features exactly ([`Implicit3::creases`]: a triangulated surface)
 /// is meshed smooth first and its features cut into that mesh; should that fail, they are cut
 /// into the marching start, and failing that too the geometry's own triangulation is the start
-/// ([`Creases::triangulation`](crate::geometry::Creases::triangulation)), before the smooth
-/// mesh is the result.
+/// ([`Creases::triangulation`](crate::geometry::Creases::triangulation)), before the 3-D mesh's
+/// boundary and then the smooth mesh are the result.
 pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
     // The size field once for every run below (on a grid from --size auto it may take longer
     // than the meshing); its time counts in the report's.
