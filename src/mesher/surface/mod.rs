@@ -127,7 +127,8 @@ const PROJECT_TOL: f64 = 1e-9;
 /// Sharp edges and corners of phi = 0 are found and held (`features.rs`), cut into the marching
 /// start; should holding them leave a surface that fails the final check or has a triangle
 /// below quality HELD_MIN_Q, they are cut into the smooth mesh (meshed without them) and held
-/// from there; failing that too, the boundary of the 3-D mesh of the inside when it is fair
+/// from there (a smooth run that fails its check goes to the 3-D mesh's boundary at once);
+/// failing that too, the boundary of the 3-D mesh of the inside when it is fair
 /// (`from_volume.rs`, also tried for a held surface with a triangle below 20 degrees), else
 /// the smooth mesh is the result, its report saying so. A
 /// geometry that gives its features exactly ([`Implicit3::creases`]: a triangulated surface)
@@ -206,7 +207,22 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
             trace(&e);
             // The features found from phi cut into the smooth mesh instead, whose even
             // triangles cut more cleanly than the marching start's (as for given features).
-            held_from_smooth(phi, opts, size, smooth_run(phi, opts, size, None)?).map_err(|failed| {
+            let smooth = match smooth_run(phi, opts, size, None) {
+                Ok(smooth) => smooth,
+                // A part too thin is the input's to change; a smooth surface that failed its
+                // check is the mesher's, and the 3-D mesh's boundary may still be a surface.
+                Err(e2 @ Error::BadSize(_)) => return Err(e2),
+                Err(e2) => {
+                    trace(&e2);
+                    let note =
+                        format!("the surface mesher failed ({e2}): this is the boundary of the 3-D mesh of the inside");
+                    return from_volume::from_volume(phi, opts, size, note).map_err(|e3| {
+                        trace(&e3);
+                        e2
+                    });
+                }
+            };
+            held_from_smooth(phi, opts, size, smooth).map_err(|failed| {
                 let (smooth, e2) = *failed;
                 trace(&e2);
                 (smooth, e)
