@@ -135,24 +135,16 @@ pub fn pinched_boundary_vertices(m: &TetMesh) -> Vec<crate::topology::TVertexId>
     let mut out: Vec<crate::topology::TVertexId> = around
         .iter()
         .filter(|(&v, faces)| {
-            // Union-find over the faces around v.
-            let mut fan: Vec<usize> = (0..faces.len()).collect();
-            fn root(fan: &mut [usize], mut i: usize) -> usize {
-                while fan[i] != i {
-                    fan[i] = fan[fan[i]];
-                    i = fan[i];
-                }
-                i
-            }
+            let mut fans = crate::topology::DisjointSets::new(faces.len());
             for i in 0..faces.len() {
                 for j in i + 1..faces.len() {
                     if faces[i].iter().any(|&w| w != v && faces[j].contains(&w)) {
-                        let (a, b) = (root(&mut fan, i), root(&mut fan, j));
-                        fan[a.max(b)] = a.min(b);
+                        fans.join(i, j);
                     }
                 }
             }
-            (0..faces.len()).any(|i| root(&mut fan, i) != 0)
+            let first = fans.root(0);
+            (1..faces.len()).any(|i| fans.root(i) != first)
         })
         .map(|(&v, _)| v)
         .collect();
