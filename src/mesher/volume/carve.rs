@@ -12,6 +12,9 @@ use std::collections::HashMap;
 /// Face-connected pieces with fewer tets than this (and under 1e-3 of the volume) are dropped
 /// at the end ([`drop_specks`]).
 const SPECK_TETS: usize = 10;
+/// A carve that pinches the boundary keeps the tets at the pinches and tries again, at most
+/// this many times.
+const PINCH_ROUNDS: usize = 4;
 
 /// Whether tet t is squashed against the boundary: three or four of its vertices on it and its
 /// centroid within GEPS h of d = 0 (or outside). The seed's retriangulation drops such tets.
@@ -45,23 +48,51 @@ pub(super) fn carve(ctx: &Ctx, m: &mut TetMesh, gone: &[TetId]) -> Result<bool, 
     if gone.is_empty() {
         return Ok(false);
     }
-    let drop: SecondaryMap<TetId, ()> = gone.iter().map(|&t| (t, ())).collect();
-    let keep: Vec<bool> = m.tet_ids().map(|t| !drop.contains_key(t)).collect();
     let crate::topology::MeshArrays { points, cells: tets, .. } = m.to_arrays();
-    let mut kept: Vec<[usize; 4]> = tets.into_iter().zip(keep).filter(|x| x.1).map(|x| x.0).collect();
-    // A carve whose pinches do not resolve is not made (the mesh as it is stays valid).
-    let Ok(mut carved) = repair_pinches(&points, &mut kept) else { return Ok(false) };
-    let found = tag_built_mesh(&mut carved, &ctx.fixed);
-    if found < m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).count() {
-        return Ok(false);
+    let ids: Vec<TetId> = m.tet_ids().collect();
+    let gone: SecondaryMap<TetId, ()> = gone.iter().map(|&t| (t, ())).collect();
+    let mut drop: Vec<bool> = ids.iter().map(|&t| gone.contains_key(t)).collect();
+    // The vertex at each position: a pinch found in the rebuilt mesh is named by position.
+    let at: HashMap<[u64; 3], usize> =
+        points.iter().enumerate().map(|(i, p)| (p.to_array().map(f64::to_bits), i)).collect();
+    let pinched_before = super::report::pinched_boundary_vertices(m).len();
+    let fixed = m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed).count();
+    for _ in 0..PINCH_ROUNDS {
+        let mut kept: Vec<[usize; 4]> = tets.iter().zip(&drop).filter(|x| !x.1).map(|x| *x.0).collect();
+        // A carve whose pinches do not resolve is not made (the mesh as it is stays valid).
+        let Ok(mut carved) = repair_pinches(&points, &mut kept) else { return Ok(false) };
+        // Nor one that pinches the boundary at a vertex (two fans of boundary faces meeting
+        // there alone, the vertex's tets still face-connected: the rebuild cannot see it):
+        // the dropped tets at such vertices stay, and the carve is tried again.
+        let pinched = super::report::pinched_boundary_vertices(&carved);
+        if pinched.len() > pinched_before {
+            let spots: Vec<usize> =
+                pinched.iter().filter_map(|&v| at.get(&carved.pos(v).to_array().map(f64::to_bits)).copied()).collect();
+            let mut kept_back = 0;
+            for (k, d) in drop.iter_mut().enumerate() {
+                if *d && tets[k].iter().any(|i| spots.contains(i)) {
+                    *d = false;
+                    kept_back += 1;
+                }
+            }
+            if kept_back == 0 || !drop.contains(&true) {
+                return Ok(false);
+            }
+            continue;
+        }
+        let found = tag_built_mesh(&mut carved, &ctx.fixed);
+        if found < fixed {
+            return Ok(false);
+        }
+        // Nor one that splits the mesh: along a sharp edge the stuck tets can be all that holds a
+        // corner on (the cube's corners broke off that way).
+        if count_pieces(&carved) > count_pieces(m) {
+            return Ok(false);
+        }
+        *m = carved;
+        return Ok(true);
     }
-    // Nor one that splits the mesh: along a sharp edge the stuck tets can be all that holds a
-    // corner on (the cube's corners broke off that way).
-    if count_pieces(&carved) > count_pieces(m) {
-        return Ok(false);
-    }
-    *m = carved;
-    Ok(true)
+    Ok(false)
 }
 
 /// The face-connected piece of each tet (a representative tet index per piece), in arena order.
