@@ -84,7 +84,7 @@ fn project_many<const N: usize>(
             } else if phi == 0.0 {
                 Some(Ok(x[k]))
             } else {
-                step_one(method, it, max_iter, tol, phi, grad, &mut x[k], &mut previous[k], k, &mut pending)
+                step_one(g, method, it, max_iter, tol, phi, grad, &mut x[k], &mut previous[k], k, &mut pending)
             };
             match decided {
                 Some(r) => out[k] = Some(r),
@@ -114,6 +114,7 @@ fn project_many<const N: usize>(
 /// done, else `None` with `x` moved (or its accelerated step queued in `pending`).
 #[allow(clippy::too_many_arguments)]
 fn step_one<const N: usize>(
+    g: &impl Geom<N>,
     method: Projection,
     it: usize,
     max_iter: usize,
@@ -135,7 +136,8 @@ fn step_one<const N: usize>(
         return Some(Ok(*x));
     }
     if it == max_iter {
-        return Some(Err(ProjectError::NoConvergence { residual }));
+        // The single projection's tail, point by point (rare: mostly zigzags into a crease).
+        return Some(super::crease_mode(g, *x, method, tol, max_iter));
     }
     let first = axpy([0.0; N], -phi / g2, grad); // seed eq. 3.9
     if method == Projection::Exact {

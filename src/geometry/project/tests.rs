@@ -273,3 +273,50 @@ fn batch_projection_matches_point_by_point_bit_for_bit() {
     let bad = project_many2(&circle, &[DVec2::new(f64::NAN, 0.0)], Projection::Auto, 1e-10, 30);
     assert!(matches!(bad[0], Err(ProjectError::NonFinite { kind: NonFiniteIn::Point, .. })));
 }
+
+/// The wedge |y| < tan(20 degrees) x as the max of its two sides' signed distances: from the
+/// left of its tip the plain steps land on each side's line in turn and zigzag into the tip,
+/// shrinking by cos^2(40 degrees) per round.
+struct Wedge;
+impl Wedge {
+    fn sides() -> [DVec2; 2] {
+        let (s, c) = 20f64.to_radians().sin_cos();
+        [DVec2::new(-s, c), DVec2::new(-s, -c)]
+    }
+}
+impl Implicit2 for Wedge {
+    fn value(&self, p: DVec2) -> f64 {
+        let [a, b] = Self::sides();
+        a.dot(p).max(b.dot(p))
+    }
+    fn gradient(&self, p: DVec2) -> DVec2 {
+        let [a, b] = Self::sides();
+        if a.dot(p) >= b.dot(p) {
+            a
+        } else {
+            b
+        }
+    }
+    fn declared_distance(&self) -> Option<bool> {
+        Some(true)
+    }
+}
+
+#[test]
+fn a_zigzag_into_a_crease_converges_in_the_crease_mode() {
+    for p in [DVec2::new(-0.3, 0.01), DVec2::new(-1.0, -0.2), DVec2::new(-0.2, 0.3)] {
+        // The plain steps alone do not reach the tolerance in 20 steps.
+        let mut x = p;
+        for _ in 0..20 {
+            x -= Wedge.value(x) * Wedge.gradient(x);
+        }
+        assert!(Wedge.value(x).abs() > 1e-6, "{p}: {}", Wedge.value(x));
+        for m in [Projection::Exact, Projection::FirstOrder] {
+            let q = project2(&Wedge, p, m, 1e-12, 20).unwrap_or_else(|e| panic!("{m:?} from {p}: {e}"));
+            assert!(Wedge.value(q).abs() < 1e-12 && q.length() < 1e-9, "{m:?} from {p}: {q}");
+            // The batch projection takes the same path, bit for bit.
+            let b = project_many2(&Wedge, &[p], m, 1e-12, 20).remove(0).expect("converges");
+            assert!(b.x.to_bits() == q.x.to_bits() && b.y.to_bits() == q.y.to_bits(), "{m:?} from {p}: {b} vs {q}");
+        }
+    }
+}
