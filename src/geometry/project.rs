@@ -241,19 +241,9 @@ fn project<const N: usize>(
     // The previous first-order step, for the multiplicity estimate below.
     let mut previous: Option<Vector<N>> = None;
     for it in 0..=max_iter {
-        let (phi, grad) = eval(g, x)?;
-        if phi == 0.0 {
-            return Ok(x);
-        }
-        let g2 = dot(grad, grad);
-        if !(g2 > 0.0) {
-            return Err(ProjectError::ZeroGradient);
-        }
+        let Some(Probe { phi, grad, g2, residual: r }) = probe(g, x, method, tol)? else { return Ok(x) };
+        residual = r;
         let gl = g2.sqrt();
-        residual = if method == Projection::Exact { phi.abs() } else { phi.abs() / gl };
-        if residual < tol {
-            return Ok(x);
-        }
         if it == max_iter {
             break;
         }
@@ -284,6 +274,34 @@ fn project<const N: usize>(
     Err(ProjectError::NoConvergence { residual })
 }
 
+/// phi, its gradient, |grad|^2 and the stopping residual at an iterate not yet on d = 0.
+struct Probe<const N: usize> {
+    phi: f64,
+    grad: Vector<N>,
+    g2: f64,
+    residual: f64,
+}
+
+/// The stopping test at `x`: `None` when x is on d = 0 (phi 0, or the residual below `tol`:
+/// |phi| for Exact, |phi| / |grad| otherwise), else the values for the next step.
+fn probe<const N: usize>(
+    g: &impl Geom<N>,
+    x: Vector<N>,
+    method: Projection,
+    tol: f64,
+) -> Result<Option<Probe<N>>, ProjectError> {
+    let (phi, grad) = eval(g, x)?;
+    if phi == 0.0 {
+        return Ok(None);
+    }
+    let g2 = dot(grad, grad);
+    if !(g2 > 0.0) {
+        return Err(ProjectError::ZeroGradient);
+    }
+    let residual = if method == Projection::Exact { phi.abs() } else { phi.abs() / g2.sqrt() };
+    Ok((residual >= tol).then_some(Probe { phi, grad, g2, residual }))
+}
+
 /// Up to `steps` more steps from `x`, where an Exact or FirstOrder projection stood after
 /// max_iter steps without converging: mostly one zigzagging into a crease (see
 /// [`crease_point`]), so each plain step is weighed against the crease point. Projections that
@@ -299,19 +317,9 @@ fn crease_mode<const N: usize>(
     // The previous iterate with its phi and gradient.
     let mut last: Option<(Vector<N>, f64, Vector<N>)> = None;
     for it in 0..=steps {
-        let (phi, grad) = eval(g, x)?;
-        if phi == 0.0 {
-            return Ok(x);
-        }
-        let g2 = dot(grad, grad);
-        if !(g2 > 0.0) {
-            return Err(ProjectError::ZeroGradient);
-        }
+        let Some(Probe { phi, grad, g2, residual: r }) = probe(g, x, method, tol)? else { return Ok(x) };
+        residual = r;
         let gl = g2.sqrt();
-        residual = if method == Projection::Exact { phi.abs() } else { phi.abs() / gl };
-        if residual < tol {
-            return Ok(x);
-        }
         if it == steps {
             break;
         }
