@@ -43,7 +43,8 @@ pub(super) fn stuck_tets(ctx: &Ctx, m: &TetMesh) -> Result<Vec<TetId>, Error> {
 /// boundary a 2-manifold; a cluster of them bridging a concave part of the boundary (or
 /// folded at a sharp edge) only goes together, and left alone it ends as slivers no swap can
 /// reach. Returns whether the mesh changed; a carve that would lose a fixed point or split the
-/// mesh into more pieces is not made.
+/// mesh into more pieces is not made, and one that would pinch the boundary at a vertex keeps
+/// the tets there (up to PINCH_ROUNDS tries).
 pub(super) fn carve(ctx: &Ctx, m: &mut TetMesh, gone: &[TetId]) -> Result<bool, Error> {
     if gone.is_empty() {
         return Ok(false);
