@@ -6,7 +6,7 @@ use super::smoothing::{coloured_smoothing, mean_smooth_target, smooth_target, st
 use super::{Ctx, CHUNK, GEPS, RR_SLACK, RR_TQ_FLOOR};
 use crate::predicates::{orient3d, Sign};
 use crate::quality::{dihedral_quality_cos_bounds, tet_dihedral_quality, tet_dihedral_quality_below};
-use crate::topology::{EdgeShell, Objective, TVertexId, TetId, TetMesh, TetPatch, VertexTag, EDGE_VERTICES};
+use crate::topology::{EdgeShell, Level, Objective, TVertexId, TetId, TetMesh, TetPatch, VertexTag, EDGE_VERTICES};
 use crate::Error;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -271,6 +271,66 @@ pub(super) fn clear_flat_boundary_tets(ctx: &mut Ctx, m: &mut TetMesh) -> Result
         }
     }
     Ok(changes)
+}
+
+/// How far from a lonely fixed point (see [`reseat_lonely_fixed_points`]) a boundary node may
+/// be to take its place, in local target lengths h0 h.
+const RESEAT_REACH: f64 = 0.3;
+
+/// Gives a fixed point held by one poor tet alone a better holder. Such a point (on a sharp
+/// edge, most often in a concave crease) has lost its other tets to removals at the boundary,
+/// while a free boundary node beside it took over its part of the surface; the tet left is a
+/// cap with three boundary faces over a nearly flat patch (a 13-degree one where a ball leaves
+/// a box's top face), which no swap or smoothing can mend, since its apex may not move. The
+/// cap goes, and the nearest free boundary node within [`RESEAT_REACH`] of the point (among
+/// the neighbours of the cap's other corners) moves onto it and is fixed there instead, when
+/// the move is a checked relocation and every tet around the node then has a higher dihedral
+/// quality than the cap had; otherwise nothing changes. Returns the number of points reseated.
+pub(super) fn reseat_lonely_fixed_points(ctx: &mut Ctx, m: &mut TetMesh) -> Result<usize, Error> {
+    let lonely: Vec<TVertexId> =
+        m.vertex_ids().filter(|&v| m.tag(v) == VertexTag::Fixed && m.vertex_tets(v).len() == 1).collect();
+    let mut done = 0;
+    for v in lonely {
+        let star = m.vertex_tets(v);
+        let [t] = star[..] else { continue };
+        let cap_q = tet_dihedral_quality(m.tet_points(t));
+        if cap_q >= CAP_TQ || m.tet(t).adj.iter().filter(|a| a.is_none()).count() != 3 {
+            continue;
+        }
+        let at = m.pos(v);
+        let reach = RESEAT_REACH * ctx.opts.h0 * ctx.h(at)?;
+        let corners = m.tet(t).v;
+        let mut best: Option<(f64, TVertexId)> = None;
+        for &c in corners.iter().filter(|&&c| c != v) {
+            for w in m.vertex_neighbours(c) {
+                if corners.contains(&w) || m.tag(w) != VertexTag::Boundary {
+                    continue;
+                }
+                let d = m.pos(w).distance(at);
+                if d <= reach && best.is_none_or(|(bd, bw)| d < bd || (d == bd && w < bw)) {
+                    best = Some((d, w));
+                }
+            }
+        }
+        let Some((_, w)) = best else { continue };
+        let saved = m.clone();
+        m.set_tag(v, VertexTag::Boundary);
+        let moved = m.remove_boundary_tet(t).is_ok() && m.relocate(w, at).is_ok();
+        // The relocation's checks are local (positive tets, unwrapped boundary rings); a node
+        // moved onto a point the cap held could still meet the boundary elsewhere, so the whole
+        // mesh is validated (rare: a few points per mesh at most).
+        let better = moved
+            && m.vertex_tets(w).iter().all(|&u| tet_dihedral_quality(m.tet_points(u)) > cap_q)
+            && m.validate(Level::Geometry).is_ok();
+        if !better {
+            *m = saved;
+            continue;
+        }
+        m.set_tag(w, VertexTag::Fixed);
+        ctx.report.ops.removed += 1;
+        done += 1;
+    }
+    Ok(done)
 }
 
 /// Applies [`find_swap`]'s choice for `t`, if any.

@@ -54,7 +54,7 @@ use boundary::{count_off, settle_boundary};
 use carve::drop_specks;
 use equilibrium::{equilibrium, repeat_rounds};
 use glam::DVec3;
-use improve::{clear_flat_boundary_tets, improve, mean_quality_round};
+use improve::{clear_flat_boundary_tets, improve, mean_quality_round, reseat_lonely_fixed_points};
 use options::Options3;
 use report::QualityStats3;
 use start::{eval_d, eval_h_floor, initial_mesh, splitmix_unit, survey};
@@ -213,8 +213,9 @@ fn run_once(domain: &dyn Implicit3, opts: &Options3, strict_folds: bool, shift: 
         eprintln!("equilibrium done at {:.2} s", t0.elapsed().as_secs_f64());
     }
     repeat_rounds(&mut ctx, &mut mesh, opts.polish_rounds, "polish", None, improve)?;
-    // Tets the polish left flat on the boundary go, and it runs again around where they were.
-    let flat = clear_flat_boundary_tets(&mut ctx, &mut mesh)?;
+    // Tets the polish left flat on the boundary go, and so do poor caps that alone hold a
+    // fixed point; the polish runs again around where they were.
+    let flat = clear_flat_boundary_tets(&mut ctx, &mut mesh)? + reseat_lonely_fixed_points(&mut ctx, &mut mesh)?;
     if flat > 0 {
         if ctx.trace {
             eprintln!("flat boundary tets: {flat} changes, dihedral from {:.2}", QualityStats3::of(&mesh).dihedral_min);

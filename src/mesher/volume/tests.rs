@@ -175,3 +175,70 @@ fn a_refreshed_snapshot_equals_a_rebuilt_one() {
     m.validate(Level::Geometry).expect("valid");
     assert_eq!(by_key(&snap), by_key(&Snapshot::build(&m)));
 }
+
+/// A fixed point held by one flat cap alone, with a free boundary node just beside it (as a
+/// crease point is left after removals at the boundary): the cap goes and the node takes the
+/// point's place, fixed; a node too far away leaves the mesh as it was.
+#[test]
+fn a_lonely_fixed_point_is_reseated_on_the_node_beside_it() {
+    use super::improve::reseat_lonely_fixed_points;
+    use crate::quality::tet_dihedral_quality;
+    use crate::topology::VertexTag;
+    // The body B C D E, the cap A B C D (A just above B C D, beyond the edge B C) and W B C E
+    // (W just below A).
+    let build = |w: DVec3| {
+        let pts = [
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.5, 1.0, 0.0),
+            DVec3::new(0.5, 0.45, -0.6),
+            DVec3::new(0.5, -0.08, 0.02),
+            w,
+        ];
+        let orient = |t: [usize; 4]| {
+            let p = t.map(|i| pts[i]);
+            if (p[1] - p[0]).cross(p[2] - p[0]).dot(p[3] - p[0]) > 0.0 {
+                t
+            } else {
+                [t[1], t[0], t[2], t[3]]
+            }
+        };
+        let tets = [orient([0, 1, 2, 3]), orient([4, 0, 1, 2]), orient([5, 0, 1, 3])];
+        let (mut m, ids) = TetMesh::from_arrays(&pts, &tets).expect("valid");
+        m.tag_boundary_vertices();
+        m.set_tag(ids[4], VertexTag::Fixed);
+        (m, ids)
+    };
+    let domain = crate::geometry::Ball::new([0.0, 0.0, 0.0], 10.0);
+    let opts = Options3::uniform(1.0, [-1.0; 3], [2.0; 3]);
+    let ctx = || Ctx {
+        domain: &domain,
+        opts: &opts,
+        projection: Projection::Exact,
+        h_floor: 1.0,
+        report: Report::default(),
+        rng: 1,
+        trace: false,
+        polish_worst: 0.0,
+        fixed: Vec::new(),
+        strict_folds: false,
+        start_shift: 0.0,
+    };
+    let (mut m, ids) = build(DVec3::new(0.5, -0.1, -0.01));
+    let cap = m.vertex_tets(ids[4])[0];
+    let cap_q = tet_dihedral_quality(m.tet_points(cap));
+    assert!(cap_q < 0.2, "the cap is flat: tq {cap_q}");
+    let a = m.pos(ids[4]);
+    assert_eq!(reseat_lonely_fixed_points(&mut ctx(), &mut m).expect("no error"), 1);
+    m.validate(Level::Geometry).expect("valid");
+    assert!(!m.contains_vertex(ids[4]), "the lonely point's cap went with it");
+    assert_eq!((m.pos(ids[5]), m.tag(ids[5])), (a, VertexTag::Fixed), "the node beside it holds the point");
+    let worst = m.tet_ids().map(|t| tet_dihedral_quality(m.tet_points(t))).fold(f64::INFINITY, f64::min);
+    assert!(worst > cap_q, "worst tq {worst} against the cap's {cap_q}");
+    // Beyond the reach (0.3 h0): nothing changes.
+    let (mut far, fids) = build(DVec3::new(0.5, -0.6, -0.2));
+    let before = far.to_arrays();
+    assert_eq!(reseat_lonely_fixed_points(&mut ctx(), &mut far).expect("no error"), 0);
+    assert_eq!(far.to_arrays(), before);
+    assert_eq!(far.tag(fids[4]), VertexTag::Fixed);
+}
