@@ -53,10 +53,18 @@ fn cases() -> Vec<Case> {
         ("x^2+(y/0.05)^2-1", "-1.1,-0.2,1.1,0.2", "0.05"),
         ("x^2+(y/0.2)^2-1", "-1.1,-0.3,1.1,0.3", "0.05"),
         ("10*(x^2+y^2-1)", "-1.1,-1.1,1.1,1.1", "0.1"),
+        // Infinite slopes at the axes (the gradient is a finite difference there).
+        ("abs(x)^0.85+abs(y)^0.85-1", "-1,-1,1,1", "0.05"),
+        ("abs(x)^0.7+abs(y)^0.7-1", "-1,-1,1,1", "0.05"),
     ] {
         v.push(case("level set, no flag", dom, &format!("mesh --domain '{dom}' --bbox {bbox} --h0 {h0}")));
     }
-    for (dom, h0) in [("(sqrt(x^2+y^2+z^2)-1)^3", "0.25"), ("x^2+y^2/4+z^2-1", "0.25"), ("x^4+y^4+z^4-1", "0.25")] {
+    for (dom, h0) in [
+        ("(sqrt(x^2+y^2+z^2)-1)^3", "0.25"),
+        ("x^2+y^2/4+z^2-1", "0.25"),
+        ("x^4+y^4+z^4-1", "0.25"),
+        ("abs(x)^0.85+abs(y)^0.85+abs(z)^0.85-1", "0.2"),
+    ] {
         v.push(case(
             "level set, no flag",
             format!("3-D {dom}"),

@@ -109,10 +109,36 @@ impl Expr {
 
     /// The value and its gradient (d/dx, d/dy, d/dz) at (x, y, z). The value is
     /// identical to [`Expr::eval`]'s. At kinks (abs, min, max, the centre of a circle)
-    /// the gradient of the active branch, or zero, is returned.
+    /// the gradient of the active branch, or zero, is returned. Where the value is finite but
+    /// a derivative is not (`abs(x)^0.7` or `x^0.5` at x = 0: the function is fine, its slope
+    /// infinite), that component is a finite difference (central, else one-sided), so that a
+    /// domain such as `abs(x)^0.7+abs(y)^0.7-1` meshes rather than failing at its cusps.
     pub fn eval_grad(&self, x: f64, y: f64, z: f64) -> (f64, [f64; 3]) {
         let r = run_sized::<Dual>(&self.code, &self.polys, &self.ranges, [x, y, z], self.depth);
-        (r.v, r.d)
+        let mut d = r.d;
+        if r.v.is_finite() && d.iter().any(|g| !g.is_finite()) {
+            for (i, g) in d.iter_mut().enumerate() {
+                if !g.is_finite() {
+                    *g = self.difference([x, y, z], r.v, i).unwrap_or(*g);
+                }
+            }
+        }
+        (r.v, d)
+    }
+
+    /// The derivative along axis `i` at `p` (where the value is `v`) by differences: central,
+    /// else forward, else backward (a function defined on one side only); `None` when none is
+    /// finite. The step is 1e-6 of the point's largest coordinate (at least 1e-3): small
+    /// against any domain the mesher can resolve, large against rounding.
+    fn difference(&self, p: [f64; 3], v: f64, i: usize) -> Option<f64> {
+        let h = 1e-6 * p.iter().fold(1e-3f64, |m, c| m.max(c.abs()));
+        let at = |t: f64| {
+            let mut q = p;
+            q[i] += t;
+            self.eval(q[0], q[1], q[2])
+        };
+        let (up, down) = (at(h), at(-h));
+        [(up - down) / (2.0 * h), (up - v) / h, (v - down) / h].into_iter().find(|g| g.is_finite())
     }
 
     /// The number of operations of the compiled program: what one evaluation costs, about a
@@ -281,6 +307,27 @@ mod tests {
         let e = Expr::parse("max(sqrt(x^2+y^2)-1, -(sqrt((x+0.4)^2+y^2)-0.55), -y)").unwrap();
         assert_eq!(e.program_len(), 19, "{}", e.dump());
         assert!(e.dump().starts_with("depth 3 "));
+    }
+
+    /// Infinite slopes where the value is finite become finite differences: symmetric cusps
+    /// (central), one-sided roots (forward); a finite analytic gradient is left as it is.
+    #[test]
+    fn infinite_slopes_become_differences() {
+        let cusp = Expr::parse("abs(x)^0.7+abs(y)^0.7-1").unwrap();
+        let (v, g) = cusp.eval_grad(0.0, -1.0, 0.0);
+        assert_eq!(v, 0.0);
+        assert!(g.iter().all(|c| c.is_finite()), "{g:?}");
+        assert_eq!(g[0], 0.0, "symmetric about x = 0");
+        assert!((g[1] + 0.7).abs() < 1e-5, "d/dy = -0.7 at y = -1: {}", g[1]);
+        let root = Expr::parse("x^0.5-y").unwrap();
+        let (_, g) = root.eval_grad(0.0, 0.5, 0.0);
+        assert!(g[0].is_finite() && g[0] > 100.0, "a steep forward slope: {}", g[0]);
+        assert_eq!(g[1], -1.0);
+        let smooth = Expr::parse("x^2+y^2-1").unwrap();
+        assert_eq!(smooth.eval_grad(0.5, 0.25, 0.0).1, [1.0, 0.5, 0.0]);
+        // Nowhere finite: left for the caller's error.
+        let bad = Expr::parse("x^0.5+(-x)^0.5").unwrap();
+        assert!(!bad.eval_grad(0.0, 0.0, 0.0).1[0].is_finite());
     }
 
     #[test]
