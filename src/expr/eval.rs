@@ -23,6 +23,13 @@ pub(crate) enum Op {
     Log10,
     Floor,
     Ceil,
+    Asin,
+    Acos,
+    Atan,
+    Sinh,
+    Cosh,
+    Tanh,
+    Sign,
     Square,
     PowI(i32),
     // Accumulator with an immediate constant.
@@ -92,6 +99,13 @@ pub(crate) trait Num:
     fn log10(self) -> Self;
     fn floor(self) -> Self;
     fn ceil(self) -> Self;
+    fn asin(self) -> Self;
+    fn acos(self) -> Self;
+    fn atan(self) -> Self;
+    fn sinh(self) -> Self;
+    fn cosh(self) -> Self;
+    fn tanh(self) -> Self;
+    fn sign(self) -> Self;
     fn square(self) -> Self;
     fn powi(self, n: i32) -> Self;
     fn powc(self, c: f64) -> Self;
@@ -160,6 +174,41 @@ impl Num for f64 {
     #[inline(always)]
     fn ceil(self) -> Self {
         f64::ceil(self)
+    }
+    #[inline(always)]
+    fn asin(self) -> Self {
+        f64::asin(self)
+    }
+    #[inline(always)]
+    fn acos(self) -> Self {
+        f64::acos(self)
+    }
+    #[inline(always)]
+    fn atan(self) -> Self {
+        f64::atan(self)
+    }
+    #[inline(always)]
+    fn sinh(self) -> Self {
+        f64::sinh(self)
+    }
+    #[inline(always)]
+    fn cosh(self) -> Self {
+        f64::cosh(self)
+    }
+    #[inline(always)]
+    fn tanh(self) -> Self {
+        f64::tanh(self)
+    }
+    /// -1, 0 or 1 (NaN stays NaN).
+    #[inline(always)]
+    fn sign(self) -> Self {
+        if self > 0.0 {
+            1.0
+        } else if self < 0.0 {
+            -1.0
+        } else {
+            self * 0.0
+        }
     }
     #[inline(always)]
     fn square(self) -> Self {
@@ -379,6 +428,29 @@ impl Num for Dual {
     fn ceil(self) -> Self {
         Dual::cst(self.v.ceil())
     }
+    fn asin(self) -> Self {
+        self.chain(self.v.asin(), 1.0 / (1.0 - self.v * self.v).sqrt())
+    }
+    fn acos(self) -> Self {
+        self.chain(self.v.acos(), -1.0 / (1.0 - self.v * self.v).sqrt())
+    }
+    fn atan(self) -> Self {
+        self.chain(self.v.atan(), 1.0 / (1.0 + self.v * self.v))
+    }
+    fn sinh(self) -> Self {
+        self.chain(self.v.sinh(), self.v.cosh())
+    }
+    fn cosh(self) -> Self {
+        self.chain(self.v.cosh(), self.v.sinh())
+    }
+    fn tanh(self) -> Self {
+        let t = self.v.tanh();
+        self.chain(t, 1.0 - t * t)
+    }
+    fn sign(self) -> Self {
+        // Flat on either side; at 0 the step's derivative is taken as 0, as floor's.
+        Dual::cst(Num::sign(self.v))
+    }
     fn square(self) -> Self {
         self.chain(self.v * self.v, 2.0 * self.v)
     }
@@ -551,6 +623,13 @@ pub(crate) fn run<T: Num>(code: &[Op], polys: &[f64], ranges: &[(u32, u32)], var
             Op::Log10 => acc = acc.log10(),
             Op::Floor => acc = acc.floor(),
             Op::Ceil => acc = acc.ceil(),
+            Op::Asin => acc = acc.asin(),
+            Op::Acos => acc = acc.acos(),
+            Op::Atan => acc = acc.atan(),
+            Op::Sinh => acc = acc.sinh(),
+            Op::Cosh => acc = acc.cosh(),
+            Op::Tanh => acc = acc.tanh(),
+            Op::Sign => acc = acc.sign(),
             Op::Square => acc = acc.square(),
             Op::PowI(n) => acc = acc.powi(n),
             Op::AddC(c) => acc = acc.add_c(c),

@@ -15,8 +15,8 @@
 //!
 //! Grammar, loosest first: `+ -`, `* /`, unary `-` and `+`, `^` (right-associative and
 //! tighter than a sign on its left, so `-x^2` is `-(x^2)`), then numbers, `x y z pi e`,
-//! parentheses and calls. Functions: `sqrt abs sin cos tan exp ln log log10 floor ceil`
-//! (`log` is the natural log), `pow atan2`, `min max` (one or more arguments) and the
+//! parentheses and calls. Functions: `sqrt abs sin cos tan asin acos atan sinh cosh tanh exp
+//! ln log log10 floor ceil sign` (`log` is the natural log), `pow atan2`, `min max` (one or more arguments) and the
 //! DistMesh helpers `dcircle dsphere drectangle dbox dpoly dunion ddiff dintersect`.
 
 mod compile;
@@ -328,6 +328,17 @@ mod tests {
         // Nowhere finite: left for the caller's error.
         let bad = Expr::parse("x^0.5+(-x)^0.5").unwrap();
         assert!(!bad.eval_grad(0.0, 0.0, 0.0).1[0].is_finite());
+    }
+
+    #[test]
+    fn inverse_and_hyperbolic_functions() {
+        assert_eq!(ev("4*atan(1)"), std::f64::consts::PI);
+        assert_eq!(Expr::parse("4*atan(1)").unwrap().program_len(), 1, "folded");
+        assert_eq!((ev("asin(1)"), ev("acos(1)")), (std::f64::consts::FRAC_PI_2, 0.0));
+        assert_eq!((ev("sinh(0)"), ev("cosh(0)"), ev("tanh(0)")), (0.0, 1.0, 0.0));
+        assert_eq!((ev("sign(-2)"), ev("sign(3)"), ev("sign(0)")), (-1.0, 1.0, 0.0));
+        let e = Expr::parse("sign(x)*tanh(y)").unwrap();
+        assert_eq!(e.eval_grad(-1.0, 0.0, 0.0), (-0.0, [0.0, -1.0, 0.0]));
     }
 
     #[test]
