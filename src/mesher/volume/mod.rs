@@ -56,6 +56,7 @@ use equilibrium::{equilibrium, repeat_rounds};
 use glam::DVec3;
 use improve::{clear_flat_boundary_tets, improve, mean_quality_round, reseat_lonely_fixed_points};
 use options::Options3;
+use rayon::prelude::*;
 use report::QualityStats3;
 use start::{eval_d, eval_h_floor, initial_mesh, splitmix_unit, survey};
 use std::time::Instant;
@@ -166,9 +167,124 @@ pub(crate) fn run(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3
             r = other;
         }
     }
+    // Every attempt laid the boundary over itself: where the domain has walls far thinner than
+    // the elements, that is the cause, and the user can act on it (a smaller h0, a thicker
+    // wall); an internal error would only say that something broke.
+    if folded(&r) {
+        if let Some(wall) = thin_wall(domain, opts)? {
+            return Err(Error::BadSize(format!(
+                "the domain has walls thinner than h0 / 2 = {:.3e} ({} samples of a grid of spacing {:.3e}; the \
+                 thinnest about {:.3e} across near ({:.4}, {:.4}, {:.4})), and the boundary's two sides met across \
+                 them in every attempt: lower h0 (a wall takes about two elements across), or thicken or remove the \
+                 walls",
+                0.5 * opts.h0,
+                wall.samples,
+                wall.spacing,
+                wall.thickness,
+                wall.at.x,
+                wall.at.y,
+                wall.at.z
+            )));
+        }
+    }
     let mut out = r?;
+    // A mean radius ratio this low (meshes of sound domains reach 0.88 and more) where walls
+    // are thinner than the elements: the report says why.
+    if out.report.quality.rr_mean < THIN_RR_MEAN {
+        if let Some(wall) = thin_wall(domain, opts)? {
+            out.report.notes.push(format!(
+                "poor tets (mean radius ratio {:.3}): the domain has walls thinner than h0 / 2 = {:.3e} (the thinnest \
+                 about {:.3e} across near ({:.4}, {:.4}, {:.4})), which no good tet fits across; lower h0 to about \
+                 half their thickness, or thicken them",
+                out.report.quality.rr_mean,
+                0.5 * opts.h0,
+                wall.thickness,
+                wall.at.x,
+                wall.at.y,
+                wall.at.z
+            ));
+        }
+    }
     out.report.seconds = t0.elapsed().as_secs_f64();
     Ok(out)
+}
+
+/// A finished mesh whose mean radius ratio is below this is checked for walls thinner than its
+/// elements (see [`thin_wall`]).
+const THIN_RR_MEAN: f64 = 0.8;
+
+/// Where the domain is thinnest, as [`thin_wall`] finds it.
+struct ThinWall {
+    /// Grid samples inside whose neighbourhood is all thin.
+    samples: usize,
+    spacing: f64,
+    /// Twice the largest distance to the boundary near the thinnest sample.
+    thickness: f64,
+    at: DVec3,
+}
+
+/// Samples of the box at most this many (the grid coarsens beyond).
+const THIN_SAMPLES: f64 = 2e6;
+
+/// The domain's walls thinner than h0 / 2, if any: on a grid of spacing h0 / 4 over the box
+/// (coarser past [`THIN_SAMPLES`]), an inside sample is in such a wall when no sample within
+/// h0 / 2 of it (a cube) lies more than h0 / 4 from the boundary (distance |d|, or |d| / |grad
+/// d| for a level set). The tip of a sharp wedge is such a place too, so this only names a
+/// likely cause of a failure, after the fact.
+fn thin_wall(domain: &dyn Implicit3, opts: &Options3) -> Result<Option<ThinWall>, Error> {
+    let [lo, hi] = opts.bbox;
+    let ext = hi - lo;
+    let spacing = (0.25 * opts.h0).max((ext.x * ext.y * ext.z / THIN_SAMPLES).cbrt());
+    let n = (ext / spacing).ceil().as_uvec3() + glam::UVec3::ONE;
+    let (nx, ny, nz) = (n.x as usize, n.y as usize, n.z as usize);
+    let idx = |i: usize, j: usize, k: usize| (k * ny + j) * nx + i;
+    let distance = domain.is_distance();
+    // The distance inside (0 outside), per sample.
+    let depth: Vec<f64> = (0..nx * ny * nz)
+        .into_par_iter()
+        .map(|c| {
+            let (i, j, k) = (c % nx, (c / nx) % ny, c / (nx * ny));
+            let p = lo + DVec3::new(i as f64, j as f64, k as f64) * spacing;
+            let d = eval_d(domain, p)?;
+            if d >= 0.0 {
+                return Ok(0.0);
+            }
+            let g = if distance { 1.0 } else { domain.gradient(p).length() };
+            Ok(-crate::mesher::truss::domain::approx_distance(d, g, distance))
+        })
+        .collect::<Result<_, Error>>()?;
+    // The largest depth within `reach` samples along each axis in turn (a cube's maximum).
+    let reach = ((0.5 * opts.h0) / spacing).ceil() as usize;
+    let mut near = depth.clone();
+    for axis in 0..3 {
+        let len = [nx, ny, nz][axis];
+        let src = near.clone();
+        for (c, out) in near.iter_mut().enumerate() {
+            let (i, j, k) = (c % nx, (c / nx) % ny, c / (nx * ny));
+            let at = [i, j, k][axis];
+            let mut m = 0.0f64;
+            for t in at.saturating_sub(reach)..(at + reach + 1).min(len) {
+                let mut q = [i, j, k];
+                q[axis] = t;
+                m = m.max(src[idx(q[0], q[1], q[2])]);
+            }
+            *out = m;
+        }
+    }
+    let mut found: Option<ThinWall> = None;
+    for c in 0..depth.len() {
+        if depth[c] > 0.0 && near[c] < 0.25 * opts.h0 {
+            let (i, j, k) = (c % nx, (c / nx) % ny, c / (nx * ny));
+            let p = lo + DVec3::new(i as f64, j as f64, k as f64) * spacing;
+            let f = found.get_or_insert(ThinWall { samples: 0, spacing, thickness: f64::INFINITY, at: p });
+            f.samples += 1;
+            if 2.0 * near[c] < f.thickness {
+                f.thickness = 2.0 * near[c];
+                f.at = p;
+            }
+        }
+    }
+    Ok(found)
 }
 
 /// The start lattice's shift, in lattice sides, of a run's last attempt (see [`run`]).
