@@ -82,6 +82,23 @@ proptest::proptest! {
     }
 }
 
+/// A context for the passes run alone on a hand-made mesh: uniform size, exact projection.
+fn test_ctx<'a>(domain: &'a dyn crate::geometry::Implicit3, opts: &'a Options3) -> Ctx<'a> {
+    Ctx {
+        domain,
+        opts,
+        projection: Projection::Exact,
+        h_floor: 1.0,
+        report: Report::default(),
+        rng: 1,
+        trace: false,
+        polish_worst: 0.0,
+        fixed: Vec::new(),
+        strict_folds: false,
+        start_shift: 0.0,
+    }
+}
+
 #[test]
 fn a_cut_off_speck_is_dropped_and_the_rest_kept() {
     let mut rng = crate::testing::Rng::new(crate::testing::SEED);
@@ -97,19 +114,7 @@ fn a_cut_off_speck_is_dropped_and_the_rest_kept() {
     m.tag_boundary_vertices();
     let domain = crate::geometry::Ball::new([0.0, 0.0, 0.0], 10.0);
     let opts = Options3::uniform(0.1, [-1.0; 3], [5.0; 3]);
-    let ctx = Ctx {
-        domain: &domain,
-        opts: &opts,
-        projection: Projection::Exact,
-        h_floor: 1.0,
-        report: Report::default(),
-        rng: 1,
-        trace: false,
-        polish_worst: 0.0,
-        fixed: Vec::new(),
-        strict_folds: false,
-        start_shift: 0.0,
-    };
+    let ctx = test_ctx(&domain, &opts);
     let before = m.num_tets();
     assert_eq!(count_pieces(&m), 2);
     assert!(drop_specks(&ctx, &mut m).expect("no error"));
@@ -211,19 +216,7 @@ fn a_lonely_fixed_point_is_reseated_on_the_node_beside_it() {
     };
     let domain = crate::geometry::Ball::new([0.0, 0.0, 0.0], 10.0);
     let opts = Options3::uniform(1.0, [-1.0; 3], [2.0; 3]);
-    let ctx = || Ctx {
-        domain: &domain,
-        opts: &opts,
-        projection: Projection::Exact,
-        h_floor: 1.0,
-        report: Report::default(),
-        rng: 1,
-        trace: false,
-        polish_worst: 0.0,
-        fixed: Vec::new(),
-        strict_folds: false,
-        start_shift: 0.0,
-    };
+    let ctx = || test_ctx(&domain, &opts);
     let (mut m, ids) = build(DVec3::new(0.5, -0.1, -0.01));
     let cap = m.vertex_tets(ids[4])[0];
     let cap_q = tet_dihedral_quality(m.tet_points(cap));
