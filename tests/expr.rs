@@ -261,6 +261,7 @@ fn gradients_match_finite_differences() {
         "pow(2+x^2, y) + pow(y, 3) + atan2(y, x) + atan2(z, 1+x^2)",
         "floor(x)*y + ceil(z) + x",
         "asin(x/3) + acos(y/3) + atan(x*z) + sinh(x/2) + cosh(y/2) + tanh(z) + sign(x-y)*z",
+        "cbrt(x^3 - 2*y + 0.5) + hypot(x - z, y^2 + 1) + hypot(2, x)",
         "dcircle(x, y, 0.2, -0.1, 1) + dsphere(x, y, z, 0, 1, 2, 0.5)",
         "drectangle(x, y, -1, 1, -0.5, 0.5) + dbox(x, y, z, -1, 1, -1, 2, 0, 1)",
         "dunion(dcircle(x,y,0,0,1), dcircle(x,y,1,0,0.5)) + ddiff(x, y) + dintersect(x, y, z)",

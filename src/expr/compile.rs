@@ -31,6 +31,7 @@ enum Bin {
     Min,
     Max,
     Atan2,
+    Hypot,
 }
 
 enum Func {
@@ -62,9 +63,11 @@ fn lookup(name: &str) -> Option<Func> {
         "sinh" => Unary(Op::Sinh),
         "cosh" => Unary(Op::Cosh),
         "tanh" => Unary(Op::Tanh),
+        "cbrt" => Unary(Op::Cbrt),
         "sign" => Unary(Op::Sign),
         "pow" => Binary(Bin::Pow),
         "atan2" => Binary(Bin::Atan2),
+        "hypot" => Binary(Bin::Hypot),
         "min" | "dunion" => Variadic(Bin::Min),
         "max" | "dintersect" => Variadic(Bin::Max),
         "ddiff" => Diff,
@@ -434,6 +437,7 @@ impl Parser {
             Bin::Min => Op::Min,
             Bin::Max => Op::Max,
             Bin::Atan2 => Op::Atan2,
+            Bin::Hypot => Op::Hypot,
         };
         if lc.is_some() && rc.is_some() {
             self.code.push(general);
@@ -451,7 +455,7 @@ impl Parser {
                 Bin::Pow => Some(Op::PowC(c)),
                 Bin::Min => Some(Op::MinC(c)),
                 Bin::Max => Some(Op::MaxC(c)),
-                Bin::Atan2 => None,
+                Bin::Atan2 | Bin::Hypot => None,
             };
             if let Some(imm) = imm {
                 self.code.pop();
@@ -469,7 +473,7 @@ impl Parser {
                     Bin::Pow => Some(Op::RPowC(c)),
                     Bin::Min => Some(Op::MinC(c)),
                     Bin::Max => Some(Op::MaxC(c)),
-                    Bin::Atan2 => None,
+                    Bin::Atan2 | Bin::Hypot => None,
                 };
                 if let Some(imm) = imm {
                     self.code.remove(l);

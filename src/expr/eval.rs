@@ -29,6 +29,7 @@ pub(crate) enum Op {
     Sinh,
     Cosh,
     Tanh,
+    Cbrt,
     Sign,
     Square,
     PowI(i32),
@@ -54,6 +55,7 @@ pub(crate) enum Op {
     Min,
     Max,
     Atan2,
+    Hypot,
     // Distance helpers, arguments in source order on the stack.
     Circle,
     Sphere,
@@ -71,7 +73,7 @@ impl Op {
         use Op::*;
         match self {
             Const(_) | Var(_) => 1,
-            Add | Sub | Mul | Div | Pow | Min | Max | Atan2 | PolyConst(_) => -1,
+            Add | Sub | Mul | Div | Pow | Min | Max | Atan2 | Hypot | PolyConst(_) => -1,
             Circle => -4,
             Sphere => -6,
             Rect => -5,
@@ -105,6 +107,7 @@ pub(crate) trait Num:
     fn sinh(self) -> Self;
     fn cosh(self) -> Self;
     fn tanh(self) -> Self;
+    fn cbrt(self) -> Self;
     fn sign(self) -> Self;
     fn square(self) -> Self;
     fn powi(self, n: i32) -> Self;
@@ -112,6 +115,7 @@ pub(crate) trait Num:
     fn rpowc(c: f64, e: Self) -> Self;
     fn pow(self, e: Self) -> Self;
     fn atan2(self, x: Self) -> Self;
+    fn hypot(self, o: Self) -> Self;
     fn min(self, o: Self) -> Self;
     fn max(self, o: Self) -> Self;
     fn add_c(self, c: f64) -> Self;
@@ -199,6 +203,10 @@ impl Num for f64 {
     fn tanh(self) -> Self {
         f64::tanh(self)
     }
+    #[inline(always)]
+    fn cbrt(self) -> Self {
+        f64::cbrt(self)
+    }
     /// -1, 0 or 1 (NaN stays NaN).
     #[inline(always)]
     fn sign(self) -> Self {
@@ -233,6 +241,10 @@ impl Num for f64 {
     #[inline(always)]
     fn atan2(self, x: Self) -> Self {
         f64::atan2(self, x)
+    }
+    #[inline(always)]
+    fn hypot(self, o: Self) -> Self {
+        f64::hypot(self, o)
     }
     #[inline(always)]
     fn min(self, o: Self) -> Self {
@@ -447,6 +459,16 @@ impl Num for Dual {
         let t = self.v.tanh();
         self.chain(t, 1.0 - t * t)
     }
+    fn cbrt(self) -> Self {
+        // 1 / (3 cbrt(v)^2). At v = 0 the slope is infinite, or finite where v is a cube
+        // (cbrt(x^3), whose inner slope is 0 there): not known from the chain rule, so it is
+        // left undefined for `Expr::eval_grad` to take a difference.
+        let c = self.v.cbrt();
+        if c == 0.0 {
+            return Dual { v: c, d: [f64::NAN; 3] };
+        }
+        self.chain(c, 1.0 / (3.0 * c * c))
+    }
     fn sign(self) -> Self {
         // Flat on either side; at 0 the step's derivative is taken as 0, as floor's.
         Dual::cst(Num::sign(self.v))
@@ -478,6 +500,12 @@ impl Num for Dual {
         let r2 = self.v * self.v + x.v * x.v;
         let (ky, kx) = if r2 > 0.0 { (x.v / r2, -self.v / r2) } else { (0.0, 0.0) };
         Dual { v: self.v.atan2(x.v), d: lin(self.d, ky, x.d, kx) }
+    }
+    fn hypot(self, o: Self) -> Self {
+        // (a a' + b b') / hypot(a, b); zero at the origin, as at a circle's centre.
+        let h = self.v.hypot(o.v);
+        let (ka, kb) = if h > 0.0 { (self.v / h, o.v / h) } else { (0.0, 0.0) };
+        Dual { v: h, d: lin(self.d, ka, o.d, kb) }
     }
     #[inline(always)]
     fn min(self, o: Self) -> Self {
@@ -629,6 +657,7 @@ pub(crate) fn run<T: Num>(code: &[Op], polys: &[f64], ranges: &[(u32, u32)], var
             Op::Sinh => acc = acc.sinh(),
             Op::Cosh => acc = acc.cosh(),
             Op::Tanh => acc = acc.tanh(),
+            Op::Cbrt => acc = acc.cbrt(),
             Op::Sign => acc = acc.sign(),
             Op::Square => acc = acc.square(),
             Op::PowI(n) => acc = acc.powi(n),
@@ -672,6 +701,10 @@ pub(crate) fn run<T: Num>(code: &[Op], polys: &[f64], ranges: &[(u32, u32)], var
             Op::Atan2 => {
                 sp -= 1;
                 acc = stack[sp].atan2(acc);
+            }
+            Op::Hypot => {
+                sp -= 1;
+                acc = stack[sp].hypot(acc);
             }
             Op::Circle => {
                 sp -= 4;

@@ -15,8 +15,8 @@
 //!
 //! Grammar, loosest first: `+ -`, `* /`, unary `-` and `+`, `^` (right-associative and
 //! tighter than a sign on its left, so `-x^2` is `-(x^2)`), then numbers, `x y z pi e`,
-//! parentheses and calls. Functions: `sqrt abs sin cos tan asin acos atan sinh cosh tanh exp
-//! ln log log10 floor ceil sign` (`log` is the natural log), `pow atan2`, `min max` (one or more arguments) and the
+//! parentheses and calls. Functions: `sqrt cbrt abs sin cos tan asin acos atan sinh cosh tanh exp
+//! ln log log10 floor ceil sign` (`log` is the natural log), `pow atan2 hypot`, `min max` (one or more arguments) and the
 //! DistMesh helpers `dcircle dsphere drectangle dbox dpoly dunion ddiff dintersect`.
 
 mod compile;
@@ -339,6 +339,22 @@ mod tests {
         assert_eq!((ev("sign(-2)"), ev("sign(3)"), ev("sign(0)")), (-1.0, 1.0, 0.0));
         let e = Expr::parse("sign(x)*tanh(y)").unwrap();
         assert_eq!(e.eval_grad(-1.0, 0.0, 0.0), (-0.0, [0.0, -1.0, 0.0]));
+    }
+
+    #[test]
+    fn cube_roots_and_hypotenuses() {
+        assert_eq!((ev("cbrt(-27)"), ev("cbrt(8)"), ev("cbrt(0)")), (-3.0, 2.0, 0.0));
+        assert_eq!(ev("hypot(3, -4)"), 5.0);
+        assert_eq!(ev("hypot(1e200, 1e200)"), 1e200 * 2f64.sqrt(), "no overflow");
+        // cbrt of a cube is a level set with a usable slope: where the cube's is zero, the
+        // root's comes from a difference.
+        let e = Expr::parse("cbrt((x-1)^3)").unwrap();
+        let (v, g) = e.eval_grad(1.0, 0.0, 0.0);
+        assert_eq!(v, 0.0);
+        assert!((g[0] - 1.0).abs() < 1e-9, "{g:?}");
+        let h = Expr::parse("hypot(x, y) - 1").unwrap();
+        assert_eq!(h.eval_grad(0.0, 0.0, 0.0), (-1.0, [0.0, 0.0, 0.0]), "zero at the centre");
+        assert_eq!(h.eval_grad(3.0, 4.0, 0.0), (4.0, [0.6, 0.8, 0.0]));
     }
 
     #[test]
