@@ -56,6 +56,10 @@ fn cases() -> Vec<Case> {
         // Infinite slopes at the axes (the gradient is a finite difference there).
         ("abs(x)^0.85+abs(y)^0.85-1", "-1,-1,1,1", "0.05"),
         ("abs(x)^0.7+abs(y)^0.7-1", "-1,-1,1,1", "0.05"),
+        // Infinite slopes all along the boundary: roots of level sets.
+        ("cbrt(x^2/4+y^2-1)", "-2,-1,2,1", "0.1"),
+        ("sign(max(abs(x),abs(y))-0.8)*sqrt(abs(max(abs(x),abs(y))-0.8))", "-1,-1,1,1", "0.1"),
+        ("cbrt((x^2/4+y^2-1)^3-0.01*x^2*y^3)", "-2.2,-1.2,2.2,1.2", "0.1"),
     ] {
         v.push(case("level set, no flag", dom, &format!("mesh --domain '{dom}' --bbox {bbox} --h0 {h0}")));
     }
@@ -64,6 +68,7 @@ fn cases() -> Vec<Case> {
         ("x^2+y^2/4+z^2-1", "0.25"),
         ("x^4+y^4+z^4-1", "0.25"),
         ("abs(x)^0.85+abs(y)^0.85+abs(z)^0.85-1", "0.2"),
+        ("cbrt(sqrt(x^2+y^2+z^2)-1)", "0.25"),
     ] {
         v.push(case(
             "level set, no flag",
@@ -240,6 +245,7 @@ fn cases() -> Vec<Case> {
         ("x^2+y^2+(z/0.001)^2-1", "0.1", "flat ellipsoid"),
         ("x^2+y^2+z^2+1", "0.2", "empty"),
         ("(sqrt(x^2+y^2)-0.6)^2+z^2-0.04", "0.1", "torus"),
+        ("cbrt(x^2+y^2+z^2-1)", "0.2", "cube root of a sphere's level set"),
     ] {
         v.push(case("surface", label, &format!("surface --phi '{phi}' --bbox -1.5,-1.5,-1.5,1.5,1.5,1.5 --h0 {h0}")));
     }

@@ -3,7 +3,7 @@
 //! table of measured numbers (`--nocapture`).
 
 use glam::{DVec2, DVec3};
-use trussmesh::expr::{Expr, ExprImplicit2};
+use trussmesh::expr::{Expr, ExprImplicit2, ExprImplicit3};
 use trussmesh::geometry::{newton_distance2, survey_gradient2, Implicit2, Implicit3, LevelSet};
 use trussmesh::mesher::{mesh_2d, mesh_3d, size_deviation, Options2, Options3};
 use trussmesh::testing::Rng;
@@ -128,6 +128,95 @@ fn random_level_sets_mesh_as_well_as_declared_2d() {
         assert!(free.q_min >= declared.q_min - 0.05, "{name} {shape}: worse than declared");
         assert!(free.q_mean >= declared.q_mean - 0.01, "{name} {shape}: worse than declared");
         assert!(free.bdev <= 1e-3, "{name} {shape}: boundary {} h0", free.bdev);
+    }
+}
+
+/// Roots of level sets: the same zero sets with an infinite slope there (a cube root, a signed
+/// square root, a fifth root), where plain first-order projection steps overshoot by the
+/// root's inverse power and swing out. Random circles and rectangles as command-line
+/// expressions (exact derivatives), and the cube root of a polynomial level set; no flag, the
+/// boundary measured against the true distance (the polynomial's Newton closest point).
+#[test]
+fn roots_of_level_sets_mesh_without_a_flag() {
+    let mut rng = Rng::new(0x0c0b_e5ad);
+    println!("{:44} {:>6} {:>8} {:>8} {:>9} {:>9}", "level set", "tris", "q min", "q mean", "size dev", "bdev/h0");
+    let mut bad = Vec::new();
+    let mut check = |label: String, row: Row2, bdev_max: f64| {
+        println!(
+            "{label:44} {:6} {:8.4} {:8.4} {:8.2}% {:9.2e}",
+            row.tris,
+            row.q_min,
+            row.q_mean,
+            100.0 * row.size_dev,
+            row.bdev
+        );
+        if !(row.q_min >= 0.7 && row.q_mean >= 0.97 && row.bdev <= bdev_max) {
+            bad.push(label);
+        }
+    };
+    for k in 0..12 {
+        let (cx, cy, r) = (rng.range(-0.2, 0.2), rng.range(-0.2, 0.2), rng.range(0.6, 0.9));
+        let base = move |p: DVec2| {
+            if k % 2 == 0 {
+                (p - DVec2::new(cx, cy)).length() - r
+            } else {
+                ((p.x - cx).abs() - r).max((p.y - cy).abs() - 0.7 * r)
+            }
+        };
+        let d = if k % 2 == 0 {
+            format!("(sqrt((x-{cx})^2+(y-{cy})^2)-{r})")
+        } else {
+            format!("max(abs(x-{cx})-{r}, abs(y-{cy})-{})", 0.7 * r)
+        };
+        let a = rng.range(0.5, 2.0);
+        let src = match k / 2 % 3 {
+            0 => format!("cbrt({d})"),
+            1 => format!("sign({d})*sqrt(abs({d}))*(1+{a}*x^2)"),
+            _ => format!("sign({d})*abs({d})^0.2"),
+        };
+        let g = ExprImplicit2::new(Expr::parse(&src).expect("parses"));
+        let row = mesh2(&g, &Options2::uniform(0.1, [-1.2, -1.2], [1.2, 1.2]), Some(&base));
+        let shape = if k % 2 == 0 { "circle" } else { "rectangle" };
+        let name = ["cbrt(d)", "sign(d) sqrt|d| (1 + a x^2)", "sign(d) |d|^0.2"][k / 2 % 3];
+        check(format!("{name}, {shape}"), row, 1e-3);
+    }
+    // The cube root of a level set that crosses zero with a finite slope: an infinite one. The
+    // polynomial's gradient vanishes at its dimple (0, 1), where no closest point is reliable:
+    // its boundary is not measured (infinite bound), only the quality.
+    let poly = Expr::parse("(x^2/4+y^2-1)^3 - 0.01*x^2*y^3").expect("parses");
+    let raw = ExprImplicit2::new(poly);
+    let dist = |p: DVec2| newton_distance2(&raw, p, 1e-12, 50).unwrap_or(f64::INFINITY);
+    let src = "cbrt((x^2/4+y^2-1)^3 - 0.01*x^2*y^3)";
+    let g = ExprImplicit2::new(Expr::parse(src).expect("parses"));
+    check(src.to_string(), mesh2(&g, &Options2::uniform(0.1, [-2.2, -1.2], [2.2, 1.2]), Some(&dist)), f64::INFINITY);
+    assert!(bad.is_empty(), "below q min 0.7, q mean 0.97 or off the boundary: {bad:?}");
+}
+
+/// Roots of level sets in 3-D: the tetrahedral mesher (through the shared projection) and the
+/// surface mesher (through its own, which before swung out of the box on a cube root and ran
+/// for minutes) on a cube-rooted ball and ellipsoid and a square-rooted box.
+#[test]
+fn roots_of_level_sets_mesh_in_3d() {
+    let ball = "cbrt(sqrt(x^2+y^2+z^2)-0.9)";
+    let ellipsoid = "cbrt(x^2/0.81+y^2/0.49+z^2/0.36-1)";
+    let cube = "sign(max(abs(x),abs(y),abs(z))-0.8)*sqrt(abs(max(abs(x),abs(y),abs(z))-0.8))";
+    println!("{:52} {:>8} {:>8} {:>8}", "level set", "mesher", "min deg", "mean");
+    for src in [ball, ellipsoid, cube] {
+        let g = ExprImplicit3::new(Expr::parse(src).expect("parses"));
+        let out = mesh_3d(&g, &Options3::uniform(0.15, [-1.0; 3], [1.0; 3])).expect("meshes");
+        out.mesh.validate(Level::Geometry).expect("valid mesh");
+        let q = out.report.quality;
+        println!("{src:52} {:>8} {:8.2} {:8.4}", "tets", q.dihedral_min, q.rr_mean);
+        assert!(q.dihedral_min >= 30.0 && q.rr_mean >= 0.85, "{src}: {q:?}");
+    }
+    for src in [ball, ellipsoid] {
+        let g = ExprImplicit3::new(Expr::parse(src).expect("parses"));
+        let opts = trussmesh::surface::SurfaceOptions::uniform(0.12, DVec3::splat(-1.0), DVec3::splat(1.0));
+        let out = trussmesh::surface::mesh_surface(&g, &opts).expect("meshes");
+        let q = &out.report.quality;
+        println!("{src:52} {:>8} {:8.2} {:8.4}", "surface", q.min_angle, q.mean_q);
+        assert_eq!(q.euler, 2, "{src}: a sphere's Euler characteristic");
+        assert!(q.min_angle >= 35.0 && q.mean_q >= 0.97, "{src}: {q:?}");
     }
 }
 

@@ -255,10 +255,13 @@ fn project<const N: usize>(
                 let m = previous.map_or(1.0, |s| multiplicity(s, first));
                 previous = Some(first);
                 let long = axpy([0.0; N], m, first);
-                // The longer step only when it stays on this side of the zero set (it does not
-                // jump over the boundary to another branch).
-                let same_side = |v: f64| v.is_finite() && (v == 0.0 || (v < 0.0) == (phi < 0.0));
-                if m > 1.0 && same_side(g.value(axpy(x, 1.0, long))) {
+                // A longer step only when it stays on this side of the zero set (it does not
+                // jump over the boundary to another branch); a shorter one when it lands nearer
+                // (on the zero set, up to rounding on either side).
+                let v = g.value(axpy(x, 1.0, long));
+                let same_side = v.is_finite() && (v == 0.0 || (v < 0.0) == (phi < 0.0));
+                let nearer = v.is_finite() && v.abs() < phi.abs();
+                if (m > 1.0 && same_side) || (m < 1.0 && nearer) {
                     previous = None;
                     long
                 } else {
@@ -400,19 +403,31 @@ fn resolve<const N: usize>(g: &impl Geom<N>, method: Projection) -> Projection {
     }
 }
 
+/// [`multiplicity`] for the surface mesher's own projection (`mesher::surface::geom`), whose
+/// steps are 3-D vectors.
+pub(crate) fn step_multiplicity3(s0: DVec3, s1: DVec3) -> f64 {
+    multiplicity::<3>(s0.to_array(), s1.to_array())
+}
+
 /// The root multiplicity that two successive first-order steps `s0`, `s1` along one line
-/// suggest: for phi = c t^m the steps shrink by r = 1 - 1/m, so m = 1 / (1 - r); 1 (no
-/// acceleration) unless the steps point the same way and shrink linearly (0.2 < r < 0.95), as
-/// they do towards a multiple root (a power of a distance, d^3) or far out on a steep level set
-/// (x^6 + y^6 - 1), where plain first-order steps crawl. At most 10.
+/// suggest: for phi = c t^m each step is -t / m, so the second is the first times
+/// rho = 1 - 1/m, and m = 1 / (1 - rho). Above 1 (at most 10) when the steps point the same
+/// way and shrink linearly (0.2 < rho < 0.95), as they do towards a multiple root (a power of
+/// a distance, d^3) or far out on a steep level set (x^6 + y^6 - 1), where plain first-order
+/// steps crawl. Below 1 (at least 0.05) when they point opposite ways (rho < -0.2): a root with
+/// an infinite slope (cbrt(F), a signed square root), where plain steps overshoot by 1/m and
+/// swing about the root (rho = -1 for a square root) or out (rho = -2 for a cube root). 1 (no
+/// change) otherwise.
 fn multiplicity<const N: usize>(s0: Vector<N>, s1: Vector<N>) -> f64 {
     let (l0, l1) = (norm(s0), norm(s1));
-    if !(l0 > 0.0 && l1 > 0.0) || dot(s0, s1) < 0.99 * l0 * l1 {
+    if !(l0 > 0.0 && l1 > 0.0) {
         return 1.0;
     }
     let r = l1 / l0;
-    if r > 0.2 && r < 0.95 {
+    if dot(s0, s1) >= 0.99 * l0 * l1 && r > 0.2 && r < 0.95 {
         (1.0 / (1.0 - r)).min(10.0)
+    } else if dot(s0, s1) <= -0.99 * l0 * l1 && r > 0.2 {
+        (1.0 / (1.0 + r)).max(0.05)
     } else {
         1.0
     }

@@ -11,8 +11,11 @@ const PROJECT_STEPS: usize = 60;
 
 /// Projects `p` onto phi = 0 by repeated first-order steps p -= phi grad / |grad|^2 (seed eq.
 /// 3.9; near the surface this is Newton's method along the gradient and converges
-/// quadratically) until |phi| / |grad phi| <= `tol`. Returns the last point if the cap is
-/// reached; the caller measures the residual.
+/// quadratically) until |phi| / |grad phi| <= `tol`. Two successive steps along one line that
+/// shrink linearly (a multiple root, d^3) or swing about the root (an infinite slope, cbrt(d))
+/// scale the next by the root's multiplicity they suggest, as the meshers' shared projection
+/// does ([`crate::geometry::project`]). Returns the last point if the cap is reached; the
+/// caller measures the residual.
 pub fn project(phi: &dyn Implicit3, p: DVec3, tol: f64) -> Result<DVec3, Error> {
     project_grad(phi, p, tol).map(|(x, _)| x)
 }
@@ -21,6 +24,7 @@ pub fn project(phi: &dyn Implicit3, p: DVec3, tol: f64) -> Result<DVec3, Error> 
 /// that the fold test after a move needs no evaluation of its own.
 pub fn project_grad(phi: &dyn Implicit3, p: DVec3, tol: f64) -> Result<(DVec3, DVec3), Error> {
     let mut x = p;
+    let mut previous: Option<DVec3> = None;
     for _ in 0..PROJECT_STEPS {
         let (v, g) = phi.value_and_gradient(x);
         if !v.is_finite() {
@@ -36,7 +40,20 @@ pub fn project_grad(phi: &dyn Implicit3, p: DVec3, tol: f64) -> Result<(DVec3, D
         if v.abs() <= tol * g2.sqrt() {
             return Ok((x, g));
         }
-        x -= (v / g2) * g;
+        let step = -(v / g2) * g;
+        let m = previous.map_or(1.0, |s| crate::geometry::project::step_multiplicity3(s, step));
+        previous = Some(step);
+        if m != 1.0 {
+            // Longer only on this side of phi = 0; shorter only when it lands nearer.
+            let w = phi.value(x + m * step);
+            let same_side = w.is_finite() && (w == 0.0 || (w < 0.0) == (v < 0.0));
+            if (m > 1.0 && same_side) || (m < 1.0 && w.is_finite() && w.abs() < v.abs()) {
+                previous = None;
+                x += m * step;
+                continue;
+            }
+        }
+        x += step;
     }
     Ok((x, phi.gradient(x)))
 }
