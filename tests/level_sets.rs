@@ -86,6 +86,20 @@ fn named_level_sets_mesh_without_a_flag() {
     }
 }
 
+/// The k-th random shape of the 2-D families: a circle (even k) or a rectangle (odd k) about
+/// (cx, cy) of size r, with its signed distance.
+fn random_shape(rng: &mut Rng, k: usize) -> (f64, f64, f64, impl Fn(DVec2) -> f64 + Copy + Send + Sync + 'static) {
+    let (cx, cy, r) = (rng.range(-0.2, 0.2), rng.range(-0.2, 0.2), rng.range(0.6, 0.9));
+    let base = move |p: DVec2| {
+        if k % 2 == 0 {
+            (p - DVec2::new(cx, cy)).length() - r
+        } else {
+            ((p.x - cx).abs() - r).max((p.y - cy).abs() - 0.7 * r)
+        }
+    };
+    (cx, cy, r, base)
+}
+
 /// Distances transformed into level sets with the same zero set (powers, positive factors,
 /// exponentials), with random centres and sizes: meshed with no declaration as well as when
 /// declared level sets (the `--implicit` flag).
@@ -94,14 +108,7 @@ fn random_level_sets_mesh_as_well_as_declared_2d() {
     let mut rng = Rng::new(0x1e7e15e7);
     println!("{:28} {:>8} {:>8} {:>8} {:>8} {:>9}", "level set", "q min", "flag", "q mean", "flag", "bdev/h0");
     for k in 0..12 {
-        let (cx, cy, r) = (rng.range(-0.2, 0.2), rng.range(-0.2, 0.2), rng.range(0.6, 0.9));
-        let base = move |p: DVec2| {
-            if k % 2 == 0 {
-                (p - DVec2::new(cx, cy)).length() - r
-            } else {
-                ((p.x - cx).abs() - r).max((p.y - cy).abs() - 0.7 * r)
-            }
-        };
+        let (_, _, _, base) = random_shape(&mut rng, k);
         let a = rng.range(0.5, 2.0);
         let (name, f): (&str, Box<dyn Fn(DVec2) -> f64 + Send + Sync>) = match k / 2 % 6 {
             0 => ("d^3", Box::new(move |p| base(p).powi(3))),
@@ -155,14 +162,7 @@ fn roots_of_level_sets_mesh_without_a_flag() {
         }
     };
     for k in 0..12 {
-        let (cx, cy, r) = (rng.range(-0.2, 0.2), rng.range(-0.2, 0.2), rng.range(0.6, 0.9));
-        let base = move |p: DVec2| {
-            if k % 2 == 0 {
-                (p - DVec2::new(cx, cy)).length() - r
-            } else {
-                ((p.x - cx).abs() - r).max((p.y - cy).abs() - 0.7 * r)
-            }
-        };
+        let (cx, cy, r, base) = random_shape(&mut rng, k);
         let d = if k % 2 == 0 {
             format!("(sqrt((x-{cx})^2+(y-{cy})^2)-{r})")
         } else {
