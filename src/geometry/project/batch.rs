@@ -41,6 +41,8 @@ pub fn project_many3(
 struct Pending<const N: usize> {
     k: usize,
     phi: f64,
+    /// The multiplicity the step is scaled by (see [`multiplicity`]).
+    m: f64,
     first: Vector<N>,
     long: Vector<N>,
 }
@@ -92,11 +94,13 @@ fn project_many<const N: usize>(
             }
         }
         if !pending.is_empty() {
-            // The longer step only when it stays on this side of the zero set.
+            // A longer step only when it stays on this side of the zero set, a shorter one when
+            // it lands nearer (as the single projection decides).
             let probes: Vec<Vector<N>> = pending.iter().map(|s| axpy(x[s.k], 1.0, s.long)).collect();
             for (s, v) in pending.into_iter().zip(g.values(&probes)) {
                 let same_side = v.is_finite() && (v == 0.0 || (v < 0.0) == (s.phi < 0.0));
-                let step = if same_side {
+                let nearer = v.is_finite() && v.abs() < s.phi.abs();
+                let step = if (s.m > 1.0 && same_side) || (s.m < 1.0 && nearer) {
                     previous[s.k] = None;
                     s.long
                 } else {
@@ -146,8 +150,8 @@ fn step_one<const N: usize>(
     }
     let m = previous.map_or(1.0, |s| multiplicity(s, first));
     *previous = Some(first);
-    if m > 1.0 {
-        pending.push(Pending { k, phi, first, long: axpy([0.0; N], m, first) });
+    if m != 1.0 {
+        pending.push(Pending { k, phi, m, first, long: axpy([0.0; N], m, first) });
     } else {
         *x = axpy(*x, 1.0, first);
     }
