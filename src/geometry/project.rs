@@ -255,13 +255,7 @@ fn project<const N: usize>(
                 let m = previous.map_or(1.0, |s| multiplicity(s, first));
                 previous = Some(first);
                 let long = axpy([0.0; N], m, first);
-                // A longer step only when it stays on this side of the zero set (it does not
-                // jump over the boundary to another branch); a shorter one when it lands nearer
-                // (on the zero set, up to rounding on either side).
-                let v = g.value(axpy(x, 1.0, long));
-                let same_side = v.is_finite() && (v == 0.0 || (v < 0.0) == (phi < 0.0));
-                let nearer = v.is_finite() && v.abs() < phi.abs();
-                if (m > 1.0 && same_side) || (m < 1.0 && nearer) {
+                if m != 1.0 && scaled_step_taken(m, phi, g.value(axpy(x, 1.0, long))) {
                     previous = None;
                     long
                 } else {
@@ -401,6 +395,17 @@ fn resolve<const N: usize>(g: &impl Geom<N>, method: Projection) -> Projection {
         Projection::Auto => Projection::FirstOrder,
         m => m,
     }
+}
+
+/// Whether a step scaled by the multiplicity `m` (see [`multiplicity`]) from a point where the
+/// function is `phi` is taken, the function being `v` where it lands: a longer one (m > 1) only
+/// when it stays on this side of the zero set (it does not jump over the boundary to another
+/// branch), a shorter one (m < 1) only when it lands nearer (on the zero set, up to rounding on
+/// either side). Shared by the point, batch and surface projections.
+pub(crate) fn scaled_step_taken(m: f64, phi: f64, v: f64) -> bool {
+    let same_side = v.is_finite() && (v == 0.0 || (v < 0.0) == (phi < 0.0));
+    let nearer = v.is_finite() && v.abs() < phi.abs();
+    (m > 1.0 && same_side) || (m < 1.0 && nearer)
 }
 
 /// [`multiplicity`] for the surface mesher's own projection (`mesher::surface::geom`), whose

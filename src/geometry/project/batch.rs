@@ -7,8 +7,8 @@
 //! projections run point by point. Each point gets bit for bit what [`super::project2`] gives.
 
 use super::{
-    at3, axpy, dot, first_non_finite, multiplicity, project, resolve, Geom, NonFiniteIn, ProjectError, Projection,
-    Vector, G2, G3,
+    at3, axpy, dot, first_non_finite, multiplicity, project, resolve, scaled_step_taken, Geom, NonFiniteIn,
+    ProjectError, Projection, Vector, G2, G3,
 };
 use crate::geometry::{Implicit2, Implicit3};
 use glam::{DVec2, DVec3};
@@ -94,13 +94,10 @@ fn project_many<const N: usize>(
             }
         }
         if !pending.is_empty() {
-            // A longer step only when it stays on this side of the zero set, a shorter one when
-            // it lands nearer (as the single projection decides).
+            // Taken as the single projection decides (see [`scaled_step_taken`]).
             let probes: Vec<Vector<N>> = pending.iter().map(|s| axpy(x[s.k], 1.0, s.long)).collect();
             for (s, v) in pending.into_iter().zip(g.values(&probes)) {
-                let same_side = v.is_finite() && (v == 0.0 || (v < 0.0) == (s.phi < 0.0));
-                let nearer = v.is_finite() && v.abs() < s.phi.abs();
-                let step = if (s.m > 1.0 && same_side) || (s.m < 1.0 && nearer) {
+                let step = if scaled_step_taken(s.m, s.phi, v) {
                     previous[s.k] = None;
                     s.long
                 } else {

@@ -43,15 +43,10 @@ pub fn project_grad(phi: &dyn Implicit3, p: DVec3, tol: f64) -> Result<(DVec3, D
         let step = -(v / g2) * g;
         let m = previous.map_or(1.0, |s| crate::geometry::project::step_multiplicity3(s, step));
         previous = Some(step);
-        if m != 1.0 {
-            // Longer only on this side of phi = 0; shorter only when it lands nearer.
-            let w = phi.value(x + m * step);
-            let same_side = w.is_finite() && (w == 0.0 || (w < 0.0) == (v < 0.0));
-            if (m > 1.0 && same_side) || (m < 1.0 && w.is_finite() && w.abs() < v.abs()) {
-                previous = None;
-                x += m * step;
-                continue;
-            }
+        if m != 1.0 && crate::geometry::project::scaled_step_taken(m, v, phi.value(x + m * step)) {
+            previous = None;
+            x += m * step;
+            continue;
         }
         x += step;
     }
