@@ -60,6 +60,31 @@ impl BestState {
         }
     }
 
+    /// [`BestState::offer`] for a mesh whose force loop holds a core (see `held`): the
+    /// arrays hold only the band, so the state is read from the mesh itself, whose positions
+    /// must be current.
+    pub(super) fn offer_mesh(&mut self, m: &TriMesh<DVec2>, q_min: f64, iteration: usize) {
+        if self.iteration != 0 && q_min <= self.q_min {
+            return;
+        }
+        self.iteration = iteration;
+        self.q_min = q_min;
+        let mut index: SecondaryMap<VertexId, u32> = SecondaryMap::with_capacity(m.num_vertices());
+        self.p.clear();
+        self.tags.clear();
+        for (v, vx) in m.vertices() {
+            index.insert(v, self.p.len() as u32);
+            self.p.push(vx.pos);
+            self.tags.push(vx.tag);
+        }
+        self.tris.clear();
+        self.tris.extend(m.face_ids().map(|f| m.face_vertices(f).map(|v| index[v])));
+        self.labels.clear();
+        if m.face_ids().any(|f| m.face(f).label != 0) {
+            self.labels.extend(m.face_ids().map(|f| m.face(f).label));
+        }
+    }
+
     /// The mesh of the kept state.
     pub(super) fn rebuild(&self) -> Result<TriMesh<DVec2>, Error> {
         let tris: Vec<[usize; 3]> = self.tris.iter().map(|t| t.map(|i| i as usize)).collect();

@@ -323,8 +323,14 @@ pub(super) fn peel_flat_ear(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) 
 /// [`peel_flat_ear`] over every boundary vertex until none is left: peeling one ear of a
 /// tongue leaves the next vertex with a single flat triangle.
 pub(super) fn peel_flat_ears(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<usize, Error> {
+    let queue: Vec<VertexId> = m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).collect();
+    peel_flat_ears_from(ctx, m, queue)
+}
+
+/// [`peel_flat_ears`] over the boundary vertices `queue` (in key order) and what peeling
+/// them opens.
+fn peel_flat_ears_from(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, mut queue: Vec<VertexId>) -> Result<usize, Error> {
     let mut peeled = 0;
-    let mut queue: Vec<VertexId> = m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).collect();
     while let Some(v) = queue.pop() {
         if !m.contains_vertex(v) {
             continue;
@@ -397,10 +403,17 @@ pub(super) fn close_slit(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) -> 
 /// [`close_slit`] at every boundary node off d = 0, then [`peel_flat_ears`]: run with density
 /// control, so that a slit or a flat tongue does not stay for the rest of the run. Returns
 /// whether the topology changed.
-pub(super) fn close_slits(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<bool, Error> {
+///
+/// `seeds` (when given) has a vertex of every boundary loop: the loops are walked from them
+/// instead of scanning every vertex of the mesh (the band of a large mesh).
+pub(super) fn close_slits(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, seeds: Option<&[VertexId]>) -> Result<bool, Error> {
+    let boundary: Vec<VertexId> = match seeds {
+        Some(seeds) => loop_vertices(m, seeds),
+        None => m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).collect(),
+    };
     let mut off: Vec<VertexId> = Vec::new();
-    for v in m.vertex_ids() {
-        if m.tag(v) == VertexTag::Boundary && m.is_boundary_vertex(v) && ctx.approx_dist(m.pos(v))?.abs() > ctx.geps {
+    for &v in &boundary {
+        if m.tag(v) == VertexTag::Boundary && ctx.approx_dist(m.pos(v))?.abs() > ctx.geps {
             off.push(v);
         }
     }
@@ -410,5 +423,32 @@ pub(super) fn close_slits(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<bool,
             changed |= close_slit(ctx, m, v)?;
         }
     }
-    Ok(peel_flat_ears(ctx, m)? > 0 || changed)
+    let queue: Vec<VertexId> = match seeds {
+        Some(_) => loop_vertices(m, &boundary),
+        None => m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).collect(),
+    };
+    Ok(peel_flat_ears_from(ctx, m, queue)? > 0 || changed)
+}
+
+/// The vertices of the boundary loops through the boundary vertices among `seeds`, in key
+/// order (the order of a scan over every vertex).
+fn loop_vertices(m: &TriMesh<DVec2>, seeds: &[VertexId]) -> Vec<VertexId> {
+    let mut seen: std::collections::HashSet<VertexId> = std::collections::HashSet::new();
+    for &s in seeds {
+        if !m.contains_vertex(s) || !m.is_boundary_vertex(s) || seen.contains(&s) {
+            continue;
+        }
+        let start = m.vertex(s).out;
+        let mut g = start;
+        for _ in 0..2 * m.num_edges() {
+            seen.insert(m.origin(g));
+            g = m.next(g);
+            if g == start {
+                break;
+            }
+        }
+    }
+    let mut out: Vec<VertexId> = seen.into_iter().collect();
+    out.sort_unstable();
+    out
 }

@@ -36,6 +36,10 @@ pub(super) fn density_candidates(
         .par_iter()
         .with_min_len(CHUNK)
         .filter_map(|&(a, b, h, kind)| {
+            // Not next to a held core (see `held`): it does not move.
+            if a as usize >= snap.n_band || b as usize >= snap.n_band {
+                return None;
+            }
             let (pa, pb) = (p[a as usize], p[b as usize]);
             let (r, rb) = if let Some(mu) = metric_unit {
                 match ctx.ratio(pa, pb) {
@@ -84,6 +88,9 @@ pub(super) fn density_candidates(
         .zip(snap.tri_faces.par_iter())
         .with_min_len(CHUNK)
         .filter_map(|(t, f)| {
+            if t.iter().any(|&v| v as usize >= snap.n_band) {
+                return None;
+            }
             let [a, b, c] = [p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]];
             if metric_unit.is_none() && surely_not_below_repair(a, b, c) {
                 return None;

@@ -1,4 +1,5 @@
 use super::best::{state_q_min, state_worst, BestState};
+use super::held::{HeldCore, CORE_RINGS, RIM_DRIFT};
 use super::*;
 use crate::mesher::StopReason;
 
@@ -45,12 +46,31 @@ pub(super) const FREEZING_BAND: DensityBand = DensityBand::new(1.5, 0.82);
 pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Error> {
     let opts = ctx.opts;
     let h0 = opts.h0;
-    let mut snap = Snapshot::build(m);
-    let mut p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
-    // Positions at the last connectivity check (the seed's pold).
-    let mut pold: Vec<DVec2> = p.clone();
     let metric = ctx.metric;
     let uniform = opts.size.is_none() && metric.is_none();
+    // A large uniform fresh mesh holds its core (see `held`): the arrays cover the band near
+    // the boundary only.
+    let mut core = if uniform
+        && m.num_vertices() > RELAYOUT_ABOVE
+        && ctx.internal.is_none()
+        && !ctx.from_previous
+        && !ctx.freezing
+    {
+        HeldCore::find(m, CORE_RINGS)
+    } else {
+        None
+    };
+    let build = |m: &TriMesh<DVec2>, core: &Option<HeldCore>| match core {
+        Some(c) => Snapshot::build_band(m, &c.held),
+        None => Snapshot::build(m),
+    };
+    let mut snap = build(m, &core);
+    let mut p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
+    if let Some(c) = &mut core {
+        c.measure(ctx, m, &snap, &p);
+    }
+    // Positions at the last connectivity check (the seed's pold).
+    let mut pold: Vec<DVec2> = p.clone();
     let mut hv: Vec<f64> = vec![1.0; p.len()];
     // With a metric: M at each vertex, and the mean metric edge length (sqrt of the mean
     // square) for the boundary spacing rule.
@@ -102,10 +122,11 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             }
         }
         eprintln!(
-            "start: q mean {:.5}, {} vertices ({} fixed), interior valences {:?}, peak {}",
-            mean_quality(ctx, &snap, &p),
+            "start: q mean {:.5}, {} vertices ({} fixed, {} held), interior valences {:?}, peak {}",
+            whole_mean_quality(ctx, &core, &snap, &p),
             p.len(),
-            snap.kind.iter().filter(|&&k| k == NodeKind::Fixed).count(),
+            snap.kind[..snap.n_band].iter().filter(|&&k| k == NodeKind::Fixed).count(),
+            core.as_ref().map_or(0, |c| c.held.len()),
             val,
             peak_memory()
         );
@@ -177,6 +198,9 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         // bars, most of them settled.)
         if full {
             scale_sums = det_sum(p.len(), node_sums);
+            if let Some(c) = &core {
+                scale_sums = c.scale_sums(scale_sums);
+            }
         }
         let rest = RestScale::from_sums(2, scale_sums);
         let scale = rest.scale(opts.fscale);
@@ -445,7 +469,9 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 if !topo_changed {
                     write_back(m, &snap, &p);
                 }
-                topo_changed |= close_slits(ctx, m)?;
+                let loops: Vec<VertexId> =
+                    snap.loop_edges.iter().map(|e| snap.ids[e[0] as usize]).filter(|&v| m.contains_vertex(v)).collect();
+                topo_changed |= close_slits(ctx, m, Some(&loops))?;
             }
             unit = rest.unit();
             munit = unit;
@@ -476,15 +502,32 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         } else {
             f64::INFINITY
         };
-        if topo_changed {
+        // The relaxation reached the held core's rim: a wider band (or the whole mesh).
+        let widen = iter % window == 0 && core.as_ref().is_some_and(|c| c.reached(&p, RIM_DRIFT * h0));
+        if widen {
+            write_back(m, &snap, &p);
+            let rings = core.as_ref().map_or(0, |c| 2 * c.rings);
+            core = HeldCore::find(m, rings);
+        }
+        if topo_changed || widen {
             rebuilds += 1;
             let tb = Instant::now();
+            if let Some(c) = &mut core {
+                c.fold_rim(&p);
+            }
             // The old arrays go before the new ones come (peak memory).
             drop(std::mem::take(&mut snap));
-            snap = Snapshot::build(m);
+            snap = build(m, &core);
             build_s += tb.elapsed().as_secs_f64();
             slots.clear();
             p = snap.ids.iter().map(|&v| m.pos(v)).collect();
+            if let Some(c) = &mut core {
+                if widen {
+                    c.measure(ctx, m, &snap, &p);
+                } else {
+                    c.track_rim(&snap, &p);
+                }
+            }
             pold = p.clone();
             newp = p.clone();
             if stall_applies {
@@ -506,7 +549,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             break;
         }
         if iter % window == 0 {
-            let q = mean_quality(ctx, &snap, &p);
+            let q = whole_mean_quality(ctx, &core, &snap, &p);
             let trace = std::env::var_os("TRUSSMESH_TRACE").is_some();
             // Runs with frozen nodes keep no best state: the pass is for the trace only there.
             let (q_min, worst) =
@@ -514,7 +557,14 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             if !ctx.freezing {
                 #[cfg(test)]
                 super::best::OFFERED.with(|o| o.borrow_mut().push((iter, q_min)));
-                best.offer(m, &snap, &p, q_min, iter);
+                if core.is_some() {
+                    if best.iteration == 0 || q_min > best.q_min {
+                        write_back(m, &snap, &p);
+                        best.offer_mesh(m, q_min, iter);
+                    }
+                } else {
+                    best.offer(m, &snap, &p, q_min, iter);
+                }
             }
             if trace {
                 // Where the worst triangle is, and what its corners are.
@@ -564,11 +614,18 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         && best.q_min > state_q_min(ctx, &snap, &p)
     {
         *m = best.rebuild()?;
+        core = None;
         snap = Snapshot::build(m);
         p = snap.ids.iter().map(|&v| m.pos(v)).collect();
         ctx.report.kept_iteration = Some(best.iteration);
     }
     drop(best);
+    // The clean-up below works on the whole mesh.
+    if core.is_some() {
+        write_back(m, &snap, &p);
+        snap = Snapshot::build(m);
+        p = snap.ids.iter().map(|&v| m.pos(v)).collect();
+    }
     // The loop's working arrays go before the final clean-up allocates (peak memory).
     drop((pold, newp, hv, moved, mv, slots, marks, tri_marks));
     // Every boundary node ends on d = 0.
@@ -601,6 +658,12 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     settle_boundary(ctx, m)?;
     ctx.report.stopped(iter, stop);
     Ok(())
+}
+
+/// The mean triangle quality of the whole mesh, from the arrays `snap` and the held core.
+fn whole_mean_quality(ctx: &Ctx, core: &Option<HeldCore>, snap: &Snapshot, p: &[DVec2]) -> f64 {
+    let q = mean_quality(ctx, snap, p);
+    core.as_ref().map_or(q, |c| c.mean_quality(q, snap.tris.len()))
 }
 
 /// The smallest triangle quality of `m` (in the metric, if any).

@@ -13,6 +13,7 @@ mod density;
 mod equilibrium;
 mod features;
 mod gaps;
+mod held;
 mod improve;
 pub(crate) mod options;
 pub(crate) mod report;

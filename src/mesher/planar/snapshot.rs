@@ -22,6 +22,9 @@ pub(super) const EDGE_INTERFACE: u8 = 2;
 /// Compact arrays of the mesh for the force loop, rebuilt when the topology changes.
 #[derive(Default)]
 pub(super) struct Snapshot {
+    /// The vertices from this index on are held core vertices next to the band (see
+    /// [`Snapshot::build_band`]); `ids.len()` when the arrays hold the whole mesh.
+    pub(super) n_band: usize,
     pub(super) ids: Vec<VertexId>,
     pub(super) kind: Vec<NodeKind>,
     pub(super) adj_start: Vec<u32>,
@@ -38,7 +41,7 @@ pub(super) struct Snapshot {
     /// Boundary neighbours (previous, next along the loop) of boundary vertices.
     pub(super) loop_nbrs: Vec<(u32, u32)>,
     /// The boundary edges (v, next along the loop) of `loop_nbrs`, for the mesh-wide guard.
-    loop_edges: Vec<[u32; 2]>,
+    pub(super) loop_edges: Vec<[u32; 2]>,
     /// Triangles over a boundary edge a -> b with an interior apex v: (v, a, b).
     pub(super) apexes: Vec<(u32, u32, u32)>,
     /// The apexes of `apexes`, sorted, for [`Snapshot::is_apex`].
@@ -58,17 +61,88 @@ impl Snapshot {
             ids.push(v);
             kind.push(NodeKind::of(vx.tag));
         }
+        let hs: Vec<HalfEdgeId> = m.edge_ids().collect();
+        let faces: Vec<crate::topology::FaceId> = m.face_ids().collect();
+        Self::assemble(m, ids, kind, index, n, hs, faces)
+    }
+
+    /// The arrays of the band of a large mesh whose `core` is held (see [`super::held`]):
+    /// every vertex outside the core, then the core vertices next to them as fixed nodes (the
+    /// halo, `n_band` onwards), the edges and triangles with a vertex in the band. The
+    /// triangles of a band vertex have their vertices in the band or the halo, so every array
+    /// is closed under the force loop's use of it. Work proportional to the band, but for one
+    /// pass over the vertex keys.
+    pub(super) fn build_band(m: &TriMesh<DVec2>, core: &SecondaryMap<VertexId, ()>) -> Snapshot {
+        let mut ids = Vec::new();
+        let mut index = SecondaryMap::with_capacity(m.num_vertices());
+        let mut kind = Vec::new();
+        for (v, vx) in m.vertices() {
+            if !core.contains_key(v) {
+                index.insert(v, ids.len() as u32);
+                ids.push(v);
+                kind.push(NodeKind::of(vx.tag));
+            }
+        }
+        let n_band = ids.len();
+        let mut hs = Vec::with_capacity(3 * n_band);
+        let mut faces = Vec::with_capacity(2 * n_band);
+        for k in 0..n_band {
+            let v = ids[k];
+            for h in m.outgoing(v) {
+                let w = m.dest(h);
+                let j = match index.get(w) {
+                    Some(&j) => j as usize,
+                    None => {
+                        // A core vertex next to the band: held.
+                        index.insert(w, ids.len() as u32);
+                        ids.push(w);
+                        kind.push(NodeKind::Fixed);
+                        ids.len() - 1
+                    }
+                };
+                // Each edge once: from its first band end.
+                if j >= n_band || k < j {
+                    hs.push(h);
+                }
+                // Each triangle once: from its first band corner.
+                if let Some(f) = m.face_of(h) {
+                    let first = m
+                        .face_vertices(f)
+                        .iter()
+                        .all(|&u| index.get(u).is_none_or(|&i| i as usize >= n_band || i as usize >= k));
+                    if first {
+                        faces.push(f);
+                    }
+                }
+            }
+        }
+        let n = ids.len();
+        let mut snap = Self::assemble(m, ids, kind, index, n, hs, faces);
+        snap.n_band = n_band;
+        snap
+    }
+
+    /// The arrays of vertices `ids` (of kinds `kind`, indexed by `index`), edges `hs` (one
+    /// half-edge each) and triangles `faces`.
+    fn assemble(
+        m: &TriMesh<DVec2>,
+        ids: Vec<VertexId>,
+        kind: Vec<NodeKind>,
+        index: SecondaryMap<VertexId, u32>,
+        n: usize,
+        hs: Vec<HalfEdgeId>,
+        tri_faces: Vec<crate::topology::FaceId>,
+    ) -> Snapshot {
         // Edges in one pass over the half-edges; the adjacency (CSR) is filled from them.
-        let mut edges = Vec::with_capacity(m.num_edges());
-        let mut quads = Vec::with_capacity(m.num_edges());
-        let mut quad_edges = Vec::with_capacity(m.num_edges());
+        let mut edges = Vec::with_capacity(hs.len());
+        let mut quads = Vec::with_capacity(hs.len());
+        let mut quad_edges = Vec::with_capacity(hs.len());
         let mut deg = vec![0u32; n + 1];
         // One subdomain (the usual case): no face record needs reading per edge.
-        let first_label = m.face_ids().next().map(|f| m.face(f).label);
-        let one_label = m.face_ids().all(|f| Some(m.face(f).label) == first_label);
+        let first_label = tri_faces.first().map(|&f| m.face(f).label);
+        let one_label = tri_faces.iter().all(|&f| Some(m.face(f).label) == first_label);
         // The records of each edge's two sides are read in parallel: this pass waits on memory
         // (a twin lies wherever its face was created).
-        let hs: Vec<HalfEdgeId> = m.edge_ids().collect();
         let rows: Vec<(u32, u32, u8, [u32; 2])> = hs
             .par_iter()
             .with_min_len(CHUNK)
@@ -108,7 +182,6 @@ impl Snapshot {
             adj[cursor[b as usize] as usize] = a;
             cursor[b as usize] += 1;
         }
-        let tri_faces: Vec<crate::topology::FaceId> = m.face_ids().collect();
         let tris: Vec<[u32; 3]> =
             tri_faces.par_iter().with_min_len(CHUNK).map(|&f| m.face_vertices(f).map(|v| index[v])).collect();
         let vt = Incidence::new(n, &tris);
@@ -147,6 +220,7 @@ impl Snapshot {
             }
         }
         Snapshot {
+            n_band: ids.len(),
             ids,
             kind,
             adj_start,

@@ -36,16 +36,15 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2
         }
     }
     let cap = (8.0 * estimate + 10_000.0) as usize;
-    let plain = opts.size.is_none() && ctx.metric.is_none() && ctx.internal.is_none() && opts.fixed.is_empty();
+    let plain =
+        opts.size.is_none() && ctx.metric.is_none() && ctx.internal.is_none() && opts.fixed.len() <= ARRAY_FIXED;
     if plain && estimate > ARRAY_START_ABOVE {
-        let (points, tris) = refine_uniform(ctx, &s, cap)?;
-        let n = points.len();
-        let labels = vec![0; tris.len()];
-        return carve_arrays(
-            ctx,
-            Cells { points, tris, labels, fixed: vec![false; n], on_boundary: vec![false; n] },
-            0.0,
-        );
+        let (mut points, tris) = refine_uniform(ctx, &s, cap)?;
+        if let Some(fixed) = hold_fixed_on_arrays(ctx, &mut points, &tris)? {
+            let n = points.len();
+            let labels = vec![0; tris.len()];
+            return carve_arrays(ctx, Cells { points, tris, labels, fixed, on_boundary: vec![false; n] }, 0.0);
+        }
     }
     let (mut m, _) = TriMesh::from_arrays(&s, &[[0, 1, 2]]).map_err(|e| Error::internal(e.to_string()))?;
     // Rounds of red refinement: every edge longer than its target (and not certainly
@@ -146,6 +145,46 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2
         );
     }
     Ok(out)
+}
+
+/// At most this many fixed points are held on the array start ([`hold_fixed_on_arrays`]
+/// scans the lattice once per point); more take the general refinement.
+const ARRAY_FIXED: usize = 16;
+
+/// A fixed point on the array start moves the nearest lattice vertex onto it from up to this
+/// many lattice edges: every point of the plane is within 1/sqrt(3) of a vertex.
+const ARRAY_FIXED_REACH: f64 = 0.6;
+
+/// The fixed points on the array start, by the rule of the general refinement in
+/// [`initial_mesh`] (which inserts a point farther than half a lattice edge from every vertex,
+/// where this moves the nearest vertex from up to ARRAY_FIXED_REACH): the nearest lattice
+/// vertex moves onto the point if its triangles stay positive and of quality at least 0.3.
+/// Returns which points of `points` are fixed, or None when some point cannot be held so
+/// (the general refinement then takes it).
+fn hold_fixed_on_arrays(ctx: &Ctx, points: &mut [DVec2], tris: &[[usize; 3]]) -> Result<Option<Vec<bool>>, Error> {
+    let mut fixed = vec![false; points.len()];
+    for p in &ctx.opts.fixed {
+        let near =
+            tris.iter().flatten().copied().min_by(|&a, &b| {
+                points[a].distance_squared(*p).total_cmp(&points[b].distance_squared(*p)).then(a.cmp(&b))
+            });
+        let Some(v) = near else { return Ok(None) };
+        if fixed[v] || points[v].distance(*p) >= ARRAY_FIXED_REACH * ctx.opts.h0 * ctx.h(*p)? {
+            return Ok(None);
+        }
+        let old = points[v];
+        points[v] = *p;
+        let fair = tris.iter().filter(|t| t.contains(&v)).all(|t| {
+            let q = [points[t[0]], points[t[1]], points[t[2]]];
+            orient2d(q[0], q[1], q[2]) == Sign::Positive && crate::quality::triangle_q(q) >= 0.3
+        });
+        if !fair {
+            points[v] = old;
+            return Ok(None);
+        }
+        fixed[v] = true;
+    }
+    Ok(Some(fixed))
 }
 
 /// Splits the longest interior edges of the carved start (in target lengths, each longer than

@@ -51,3 +51,106 @@ fn iteration_cap_returns_the_best_state_met() {
     }
     println!("{restored} capped runs finished from an earlier state");
 }
+
+/// A lattice disk of radius 1 and spacing `h` (Delaunay of the lattice points inside).
+fn lattice_disk(h: f64) -> TriMesh<DVec2> {
+    let mut pts = Vec::new();
+    let rows = (1.0 / (h * 0.75f64.sqrt())).ceil() as i64;
+    for j in -rows..=rows {
+        let y = j as f64 * h * 0.75f64.sqrt();
+        let shift = if j % 2 == 0 { 0.0 } else { 0.5 * h };
+        let cols = (1.0 / h).ceil() as i64 + 1;
+        for i in -cols..=cols {
+            let p = DVec2::new(i as f64 * h + shift, y);
+            if p.length() < 1.0 {
+                pts.push(p);
+            }
+        }
+    }
+    TriMesh::delaunay(&pts).expect("lattice").0
+}
+
+/// The held core of a large uniform mesh (see `held`): its vertices lie more than `rings`
+/// edges from the boundary, and the band's arrays are closed: every band vertex has its
+/// whole star in them, and the core vertices next to the band come in as fixed nodes.
+#[test]
+fn held_core_leaves_the_band_whole() {
+    let m = lattice_disk(0.01);
+    let rings = 10;
+    let core = held::HeldCore::find(&m, rings).expect("a core");
+    // Depth by a breadth-first walk from the boundary.
+    let mut depth: SecondaryMap<VertexId, usize> = SecondaryMap::new();
+    let mut front: Vec<VertexId> = m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).collect();
+    for &v in &front {
+        depth.insert(v, 0);
+    }
+    let mut r = 0;
+    while !front.is_empty() {
+        r += 1;
+        let mut next = Vec::new();
+        for &v in &front {
+            for w in m.neighbours(v) {
+                if !depth.contains_key(w) {
+                    depth.insert(w, r);
+                    next.push(w);
+                }
+            }
+        }
+        front = next;
+    }
+    for v in m.vertex_ids() {
+        assert_eq!(core.held.contains_key(v), depth[v] > rings, "depth {}", depth[v]);
+    }
+    let snap = Snapshot::build_band(&m, &core.held);
+    println!(
+        "{} vertices: {} held, {} in the band, {} in the halo",
+        m.num_vertices(),
+        core.held.len(),
+        snap.n_band,
+        snap.ids.len() - snap.n_band
+    );
+    assert_eq!(snap.n_band, m.num_vertices() - core.held.len());
+    for (i, &v) in snap.ids.iter().enumerate() {
+        let ring = &snap.adj[snap.adj_start[i] as usize..snap.adj_start[i + 1] as usize];
+        if i < snap.n_band {
+            assert!(!core.held.contains_key(v));
+            assert_eq!(ring.len(), m.valence(v), "band vertex {i}: its whole ring");
+            assert_eq!(snap.vt.of(i).len(), m.vertex_faces(v).len(), "band vertex {i}: its whole fan");
+            assert_eq!(snap.kind[i], NodeKind::of(m.tag(v)));
+        } else {
+            assert!(core.held.contains_key(v));
+            assert_eq!(snap.kind[i], NodeKind::Fixed, "halo vertex {i} is held");
+            assert!(ring.iter().all(|&j| (j as usize) < snap.n_band), "halo vertex {i}: only its band edges");
+            assert_eq!(depth[v], rings + 1);
+        }
+    }
+    // Each triangle once, every one with a band corner.
+    let mut seen = std::collections::HashSet::new();
+    for (t, &f) in snap.tris.iter().zip(&snap.tri_faces) {
+        assert!(seen.insert(f));
+        assert!(t.iter().any(|&i| (i as usize) < snap.n_band));
+    }
+}
+
+/// A large uniform mesh holds its core, and the iteration cap still returns the best state
+/// met, read from the whole mesh.
+#[test]
+fn iteration_cap_returns_the_best_state_with_a_held_core() {
+    use crate::geometry::Circle;
+    for cap in [30, 90] {
+        let opts = Options2::uniform(0.006, [-1.0, -1.0], [1.0, 1.0]).with_max_iter(cap);
+        best::OFFERED.with(|o| o.borrow_mut().clear());
+        let out = run(&Circle::new([0.0, 0.0], 1.0), &opts).expect("meshing");
+        let offered = best::OFFERED.with(|o| o.borrow().clone());
+        let best_q = offered.iter().map(|s| s.1).fold(f64::NEG_INFINITY, f64::max);
+        let q = out.report.quality.q_min;
+        println!(
+            "cap {cap}: {} triangles, kept iteration {:?}, best state q min {best_q:.4}, returned {q:.4}",
+            out.report.quality.triangles, out.report.kept_iteration
+        );
+        assert!(out.report.quality.triangles > 100_000);
+        assert!(!offered.is_empty());
+        out.mesh.validate(Level::Geometry).expect("a valid mesh");
+        assert!(q >= best_q, "cap {cap}: returned q min {q:.4} below the best state met {best_q:.4}");
+    }
+}
