@@ -269,9 +269,21 @@ impl Snapshot {
             Some(mv) => metric_triangle_q(&mv[a], [x[a], x[b], x[c]]),
             None => triangle_q([x[a], x[b], x[c]]),
         };
+        // q >= FLAT_Q without a square root for the usual fair triangle: q = 16 A^2 / (a b c
+        // (a + b + c)) >= 4 cross^2 / (3 lmax^4), asked with a margin of two for rounding.
+        let surely_not_flat = |x: &[DVec2], [a, b, c]: [usize; 3]| {
+            if metrics.is_some() {
+                return false;
+            }
+            let (e1, e2, e3) = (x[b] - x[a], x[c] - x[a], x[c] - x[b]);
+            let l2 = e1.length_squared().max(e2.length_squared()).max(e3.length_squared());
+            let cross = e1.perp_dot(e2);
+            4.0 * cross * cross >= 6.0 * FLAT_Q * l2 * l2
+        };
         truss::guard_inversions(&self.tris, subset, old, newp, MAX_HALVINGS, Backoff::PerElement, |q, t| {
             let t = [t[0] as usize, t[1] as usize, t[2] as usize];
-            orient2d(q[t[0]], q[t[1]], q[t[2]]) == Sign::Positive && (q_of(q, t) >= FLAT_Q || q_of(old, t) < FLAT_Q)
+            orient2d(q[t[0]], q[t[1]], q[t[2]]) == Sign::Positive
+                && (surely_not_flat(q, t) || q_of(q, t) >= FLAT_Q || q_of(old, t) < FLAT_Q)
         });
     }
 
@@ -521,15 +533,17 @@ impl Snapshot {
             return 0;
         }
         let on_boundary = |i: usize| self.loop_nbrs[i].0 != u32::MAX;
+        // Squared lengths and one square root per triangle: this runs on every triangle of
+        // every moved node at every step.
         let path_positive = |t: u32| {
             let [a, b, c] = self.tris[t as usize].map(|x| x as usize);
-            let delta = [a, b, c].iter().map(|&k| newp[k].distance(old[k])).fold(0.0, f64::max);
-            if delta == 0.0 {
+            let delta2 = [a, b, c].iter().map(|&k| newp[k].distance_squared(old[k])).fold(0.0, f64::max);
+            if delta2 == 0.0 {
                 return true;
             }
             let (e1, e2) = (old[b] - old[a], old[c] - old[a]);
-            let l = e1.length().max(e2.length()).max((old[c] - old[b]).length());
-            e1.perp_dot(e2) > 4.0 * delta * l * (1.0 + 1e-9) + 4.0 * delta * delta + 1e-12 * l * l
+            let l2 = e1.length_squared().max(e2.length_squared()).max((old[c] - old[b]).length_squared());
+            e1.perp_dot(e2) > 4.0 * (delta2 * l2).sqrt() * (1.0 + 1e-9) + 4.0 * delta2 + 1e-12 * l2
         };
         // The suspects, from each moved node's triangles and neighbours: the corners of
         // triangles whose path the screen cannot clear get both exact checks (the fan and the
