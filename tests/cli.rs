@@ -404,3 +404,34 @@ fn sharp_corners_are_held_unless_turned_off() {
     assert_eq!(code, 0, "{err}");
     assert!(!format!("{out}{err}").contains("sharp corners"), "{out}{err}");
 }
+
+/// Sizes are relative: a positive constant `--size` is the uniform size, and the output is the
+/// same bytes as without `--size` (in 2-D and 3-D); a constant that is not positive is still
+/// refused, and so is a constant `--size` beside `--metric`.
+#[test]
+fn constant_size_is_the_uniform_size() {
+    let dir = tmp("constant_size");
+    for (dim, domain, h0, bbox) in
+        [("2", "sqrt(x^2+y^2)-1", "0.1", "-1,-1,1,1"), ("3", "sqrt(x^2+y^2+z^2)-1", "0.3", "-1,-1,-1,1,1,1")]
+    {
+        let base = ["mesh", "--dim", dim, "--domain", domain, "--h0", h0, "--bbox", bbox, "--quiet"];
+        let mut outputs = Vec::new();
+        for (k, size) in [None, Some("1"), Some("2.5*pi")].into_iter().enumerate() {
+            let name = format!("m{dim}_{k}.json");
+            let mut args: Vec<&str> = base.to_vec();
+            if let Some(s) = size {
+                args.extend(["--size", s]);
+            }
+            args.extend(["-o", &name]);
+            let (code, _, err) = run(&dir, &args);
+            assert_eq!(code, 0, "--size {size:?}: {err}");
+            outputs.push(std::fs::read(dir.join(&name)).unwrap());
+        }
+        assert!(outputs.iter().all(|o| *o == outputs[0]), "dim {dim}: a constant size changed the mesh");
+    }
+    let (code, _, err) =
+        run(&dir, &mesh_args("sqrt(x^2+y^2)-1", &["--h0", "0.1", "--bbox", "-1,-1,1,1", "--size", "-1"]));
+    assert_eq!(code, 2, "{err}");
+    let a = mesh_args("sqrt(x^2+y^2)-1", &["--h0", "0.1", "--bbox", "-1,-1,1,1", "--size", "1", "--metric", "1;0;1"]);
+    bad(&a, &["either --size or --metric"]);
+}

@@ -272,7 +272,16 @@ impl Spec {
         let domain = fields::load("--domain", &self.domain, dim, &self.place)?;
         let auto_size = is_auto(self.size.as_deref());
         let size = match &self.size {
-            Some(s) if !auto_size => Some(fields::load("--size", s, dim, &self.place)?),
+            // Sizes are relative: a positive constant is the uniform size, which the meshers
+            // have fast paths for (the 2-D force loop holds a large lattice's core).
+            Some(s) if !auto_size => match fields::load("--size", s, dim, &self.place)? {
+                fields::Field::Expr(e)
+                    if e.is_constant() && e.eval(0.0, 0.0, 0.0).is_finite() && e.eval(0.0, 0.0, 0.0) > 0.0 =>
+                {
+                    None
+                }
+                f => Some(f),
+            },
             _ => None,
         };
         if !(fields::is_grid(&self.domain) || self.size.as_deref().is_some_and(fields::is_grid))
@@ -293,7 +302,7 @@ impl Spec {
                         parts.len()
                     )));
                 }
-                if size.is_some() || auto_size {
+                if self.size.is_some() {
                     return Err(Failure::bad(
                         "give either --size or --metric, not both (the metric replaces the size)",
                     ));

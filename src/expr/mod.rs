@@ -152,6 +152,11 @@ impl Expr {
         self.uses_z
     }
 
+    /// Whether the value depends on no variable (x, y and z are never read).
+    pub fn is_constant(&self) -> bool {
+        !self.code.iter().any(|op| matches!(op, eval::Op::Var(_)))
+    }
+
     /// The source text this was compiled from.
     pub fn source(&self) -> &str {
         &self.src
