@@ -399,7 +399,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         if metric.is_some() {
             snap.guard_folds(&p, &mut newp);
         } else {
-            snap.guard_folds_screened(&p, &mut newp, if full { None } else { Some(&active) });
+            snap.guard_folds_screened(&p, &mut newp, tris.as_deref());
         }
         // Boundary nodes count too once the step is taken: a node still travelling to d = 0
         // (a start cut from a previous mesh) is not settled.

@@ -40,6 +40,8 @@ pub(super) struct Snapshot {
     pub(super) quad_edges: Vec<HalfEdgeId>,
     /// Boundary neighbours (previous, next along the loop) of boundary vertices.
     pub(super) loop_nbrs: Vec<(u32, u32)>,
+    /// The vertices with loop neighbours (boundary vertices), in index order.
+    loop_ids: Vec<u32>,
     /// The boundary edges (v, next along the loop) of `loop_nbrs`, for the mesh-wide guard.
     pub(super) loop_edges: Vec<[u32; 2]>,
     /// Triangles over a boundary edge a -> b with an interior apex v: (v, a, b).
@@ -231,6 +233,7 @@ impl Snapshot {
             edges,
             quads,
             quad_edges,
+            loop_ids: (0..n as u32).filter(|&i| loop_nbrs[i as usize].0 != u32::MAX).collect(),
             loop_edges: (0..n as u32)
                 .filter(|&i| loop_nbrs[i as usize].1 != u32::MAX)
                 .map(|i| [i, loop_nbrs[i as usize].1])
@@ -478,16 +481,17 @@ impl Snapshot {
     /// vertices next to a moved node, are checked exactly ([`Snapshot::winds_once`]). Nodes
     /// around a fan that does not wind once go back to `old`, then their fans are checked in
     /// turn (at most 8 rounds, then every moved node goes back). Then boundary edges far
-    /// apart in the mesh ([`Snapshot::guard_boundary_crossings`]). `nodes` lists the nodes
-    /// that may have moved (None: all). Returns how many nodes went back.
-    pub(super) fn guard_folds_screened(&self, old: &[DVec2], newp: &mut [DVec2], nodes: Option<&[u32]>) -> usize {
-        let mut reverted = self.guard_folds_local(old, newp, nodes);
+    /// apart in the mesh ([`Snapshot::guard_boundary_crossings`]). `tris` lists the triangles
+    /// (indices into `tris`) that may have a moved corner (None: all). Returns how many nodes
+    /// went back.
+    pub(super) fn guard_folds_screened(&self, old: &[DVec2], newp: &mut [DVec2], tris: Option<&[u32]>) -> usize {
+        let mut reverted = self.guard_folds_local(old, newp, tris);
         for _ in 0..GLOBAL_ROUNDS {
             let back = self.guard_boundary_crossings(old, newp);
             if back == 0 {
                 break;
             }
-            reverted += back + self.guard_folds_local(old, newp, nodes);
+            reverted += back + self.guard_folds_local(old, newp, tris);
         }
         reverted
     }
@@ -524,15 +528,7 @@ impl Snapshot {
     }
 
     /// [`Snapshot::guard_folds_screened`] within the fans and boundary rings of the moved nodes.
-    fn guard_folds_local(&self, old: &[DVec2], newp: &mut [DVec2], nodes: Option<&[u32]>) -> usize {
-        let moved: Vec<u32> = match nodes {
-            Some(list) => list.par_iter().copied().filter(|&i| newp[i as usize] != old[i as usize]).collect(),
-            None => (0..old.len() as u32).into_par_iter().filter(|&i| newp[i as usize] != old[i as usize]).collect(),
-        };
-        if moved.is_empty() {
-            return 0;
-        }
-        let on_boundary = |i: usize| self.loop_nbrs[i].0 != u32::MAX;
+    fn guard_folds_local(&self, old: &[DVec2], newp: &mut [DVec2], tris: Option<&[u32]>) -> usize {
         // Squared lengths and one square root per triangle: this runs on every triangle of
         // every moved node at every step.
         let path_positive = |t: u32| {
@@ -545,34 +541,29 @@ impl Snapshot {
             let l2 = e1.length_squared().max(e2.length_squared()).max((old[c] - old[b]).length_squared());
             e1.perp_dot(e2) > 4.0 * (delta2 * l2).sqrt() * (1.0 + 1e-9) + 4.0 * delta2 + 1e-12 * l2
         };
-        // The suspects, from each moved node's triangles and neighbours: the corners of
-        // triangles whose path the screen cannot clear get both exact checks (the fan and the
-        // boundary edges, tagged with the high bit), the boundary vertices next to a moved node
-        // the fan check (an open fan's turn varies continuously and is not a multiple of 2 pi).
+        // The suspects: the corners of triangles whose path the screen cannot clear get both
+        // exact checks (the fan and the boundary edges, tagged with the high bit), the boundary
+        // vertices that moved or are next to a moved node the fan check (an open fan's turn
+        // varies continuously and is not a multiple of 2 pi). Each triangle is screened once.
         const FULL: u32 = 1 << 31;
-        let found: Vec<smallvec::SmallVec<[u32; 8]>> = moved
+        let moved_at = |i: usize| newp[i] != old[i];
+        let mut check: Vec<u32> = self
+            .loop_ids
             .par_iter()
             .with_min_len(CHUNK)
-            .map(|&i| {
-                let i = i as usize;
-                let mut out = smallvec::SmallVec::new();
-                if on_boundary(i) {
-                    out.push(i as u32);
-                }
-                for &j in &self.adj[self.adj_start[i] as usize..self.adj_start[i + 1] as usize] {
-                    if on_boundary(j as usize) {
-                        out.push(j);
-                    }
-                }
-                for &t in self.vt.of(i) {
-                    if !path_positive(t) {
-                        out.extend(self.tris[t as usize].iter().map(|&v| v | FULL));
-                    }
-                }
-                out
-            })
+            .copied()
+            .filter(|&b| moved_at(b as usize) || self.ring(b as usize).iter().any(|&j| moved_at(j as usize)))
             .collect();
-        let mut check: Vec<u32> = found.into_iter().flatten().collect();
+        let failing: Vec<u32> = match tris {
+            Some(ts) => ts.par_iter().with_min_len(CHUNK).copied().filter(|&t| !path_positive(t)).collect(),
+            None => {
+                (0..self.tris.len() as u32).into_par_iter().with_min_len(CHUNK).filter(|&t| !path_positive(t)).collect()
+            }
+        };
+        check.extend(failing.iter().flat_map(|&t| self.tris[t as usize].map(|v| v | FULL)));
+        if check.is_empty() {
+            return 0;
+        }
         // A node listed both ways keeps the full check only.
         check.sort_unstable_by_key(|&x| (x & !FULL, std::cmp::Reverse(x & FULL)));
         check.dedup_by_key(|x| *x & !FULL);
@@ -609,8 +600,7 @@ impl Snapshot {
                 break;
             }
         }
-        for &i in &moved {
-            let i = i as usize;
+        for i in 0..old.len() {
             if newp[i] != old[i] {
                 newp[i] = old[i];
                 reverted += 1;
