@@ -3,9 +3,10 @@
 //! that the boundary sets off fades within a few dozen rows (on the unit disk at 10^6
 //! triangles, nodes 20 sizes deep move 0.02 sizes over the whole run, 30 deep 1e-6). The
 //! force loop of such a mesh works on the band of vertices within `rings` edges of the
-//! boundary and holds the rest (the core): the arrays it rebuilds after each topology change,
-//! its full sweeps and its mesh-wide passes then cost in proportion to the band, not the
-//! mesh. Should the relaxation reach the band's inner rim after all, the band is widened.
+//! boundary (and of the fixed points) and holds the rest (the core): the arrays it rebuilds
+//! after each topology change, its full sweeps and its mesh-wide passes then cost in
+//! proportion to the band, not the mesh. Should the relaxation reach the band's inner rim
+//! after all, the band is widened.
 
 use super::*;
 
@@ -34,11 +35,14 @@ pub(super) struct HeldCore {
 }
 
 impl HeldCore {
-    /// The core of `m` beyond `rings` edges from the boundary, or None when it would hold
-    /// less than CORE_SHARE of the vertices (or the mesh has no boundary).
+    /// The core of `m` beyond `rings` edges from the boundary and from every fixed vertex
+    /// (a fixed point moved a lattice vertex or was inserted, and the lattice relaxes around
+    /// it too), or None when it would hold less than CORE_SHARE of the vertices (or the mesh
+    /// has no boundary).
     pub(super) fn find(m: &TriMesh<DVec2>, rings: usize) -> Option<HeldCore> {
         let mut depth: SecondaryMap<VertexId, u32> = SecondaryMap::with_capacity(m.num_vertices());
-        let mut front: Vec<VertexId> = m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).collect();
+        let mut front: Vec<VertexId> =
+            m.vertex_ids().filter(|&v| m.is_boundary_vertex(v) || m.tag(v) == VertexTag::Fixed).collect();
         if front.is_empty() {
             return None;
         }

@@ -71,16 +71,21 @@ fn lattice_disk(h: f64) -> TriMesh<DVec2> {
 }
 
 /// The held core of a large uniform mesh (see `held`): its vertices lie more than `rings`
-/// edges from the boundary, and the band's arrays are closed: every band vertex has its
-/// whole star in them, and the core vertices next to the band come in as fixed nodes.
+/// edges from the boundary and from the fixed vertices, and the band's arrays are closed:
+/// every band vertex has its whole star in them, and the core vertices next to the band come
+/// in as fixed nodes.
 #[test]
 fn held_core_leaves_the_band_whole() {
-    let m = lattice_disk(0.01);
+    let mut m = lattice_disk(0.01);
+    let centre = m.vertex_ids().min_by(|&a, &b| m.pos(a).length().total_cmp(&m.pos(b).length())).unwrap();
+    m.set_tag(centre, VertexTag::Fixed);
     let rings = 10;
     let core = held::HeldCore::find(&m, rings).expect("a core");
-    // Depth by a breadth-first walk from the boundary.
+    assert!(!core.held.contains_key(centre));
+    // Depth by a breadth-first walk from the boundary and the fixed vertex.
     let mut depth: SecondaryMap<VertexId, usize> = SecondaryMap::new();
-    let mut front: Vec<VertexId> = m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).collect();
+    let mut front: Vec<VertexId> =
+        m.vertex_ids().filter(|&v| m.is_boundary_vertex(v) || m.tag(v) == VertexTag::Fixed).collect();
     for &v in &front {
         depth.insert(v, 0);
     }
@@ -153,4 +158,37 @@ fn iteration_cap_returns_the_best_state_with_a_held_core() {
         out.mesh.validate(Level::Geometry).expect("a valid mesh");
         assert!(q >= best_q, "cap {cap}: returned q min {q:.4} below the best state met {best_q:.4}");
     }
+}
+
+/// The band is widened once a vertex of its inner rim has moved RIM_DRIFT in all, summed over
+/// rebuilds of the arrays (the bound survives them), and a wider core holds fewer vertices.
+#[test]
+fn held_core_notices_moves_at_its_rim() {
+    let m = lattice_disk(0.01);
+    let mut core = held::HeldCore::find(&m, 10).expect("a core");
+    let snap = Snapshot::build_band(&m, &core.held);
+    let mut p: Vec<DVec2> = snap.ids.iter().map(|&v| m.pos(v)).collect();
+    core.track_rim(&snap, &p);
+    let limit = 1e-3;
+    assert!(!core.reached(&p, limit));
+    // A boundary vertex moves far: not the rim.
+    let outer = (0..snap.n_band).find(|&i| m.is_boundary_vertex(snap.ids[i])).unwrap();
+    p[outer] += DVec2::new(5.0 * limit, 0.0);
+    assert!(!core.reached(&p, limit));
+    // A rim vertex (next to the halo) moves 0.6 of the limit, twice across a rebuild.
+    let rim = (0..snap.n_band)
+        .find(|&i| {
+            snap.adj[snap.adj_start[i] as usize..snap.adj_start[i + 1] as usize]
+                .iter()
+                .any(|&j| j as usize >= snap.n_band)
+        })
+        .unwrap();
+    p[rim] += DVec2::new(0.6 * limit, 0.0);
+    assert!(!core.reached(&p, limit));
+    core.fold_rim(&p);
+    core.track_rim(&snap, &p);
+    p[rim] += DVec2::new(0.0, 0.6 * limit);
+    assert!(core.reached(&p, limit), "the moves before the rebuild count");
+    let wider = held::HeldCore::find(&m, 20).expect("a core");
+    assert!(wider.held.len() < core.held.len());
 }
