@@ -12,7 +12,7 @@ use crate::mesher::truss::domain::approx_distance;
 use crate::topology::TriMesh;
 use crate::Error;
 use glam::DVec2;
-use std::collections::HashMap;
+use rayon::prelude::*;
 
 /// Depth, in local target lengths, past which a sample must be covered.
 const DEPTH: f64 = 0.2;
@@ -33,48 +33,70 @@ pub(super) fn uncovered(ctx: &Ctx, mesh: &TriMesh<DVec2>) -> Result<Uncovered, E
     let nx = ((ext.x / opts.h0).ceil() as usize + 1).clamp(8, 512);
     let ny = ((ext.y / opts.h0).ceil() as usize + 1).clamp(8, 512);
     let step = DVec2::new(ext.x / (nx - 1) as f64, ext.y / (ny - 1) as f64);
-    // Triangles bucketed by the cells of the sample grid their bounding boxes touch.
+    // Triangles bucketed by the cells of the sample grid their bounding boxes touch (flat
+    // arrays: a count per cell, then the triangles of cell c at start[c]..start[c + 1]).
     let tris: Vec<[DVec2; 3]> = mesh.face_ids().map(|f| mesh.face_points(f)).collect();
-    let mut cells: HashMap<[usize; 2], Vec<u32>> = HashMap::new();
     let cell = |p: DVec2| {
         let c = ((p - lo) / step).floor();
         [c.x.clamp(0.0, (nx - 1) as f64) as usize, c.y.clamp(0.0, (ny - 1) as f64) as usize]
     };
-    for (k, t) in tris.iter().enumerate() {
-        let (a, b) = (cell(t[0].min(t[1]).min(t[2])), cell(t[0].max(t[1]).max(t[2])));
+    let spans: Vec<([usize; 2], [usize; 2])> =
+        tris.par_iter().map(|t| (cell(t[0].min(t[1]).min(t[2])), cell(t[0].max(t[1]).max(t[2])))).collect();
+    let mut start = vec![0u32; nx * ny + 1];
+    for (a, b) in &spans {
         for j in a[1]..=b[1] {
             for i in a[0]..=b[0] {
-                cells.entry([i, j]).or_default().push(k as u32);
+                start[i + nx * j + 1] += 1;
             }
         }
     }
+    for c in 0..nx * ny {
+        start[c + 1] += start[c];
+    }
+    let mut fill = start.clone();
+    let mut in_cell = vec![0u32; start[nx * ny] as usize];
+    for (k, (a, b)) in spans.iter().enumerate() {
+        for j in a[1]..=b[1] {
+            for i in a[0]..=b[0] {
+                let c = i + nx * j;
+                in_cell[fill[c] as usize] = k as u32;
+                fill[c] += 1;
+            }
+        }
+    }
+    let bucket = |c: [usize; 2]| &in_cell[start[c[0] + nx * c[1]] as usize..start[c[0] + nx * c[1] + 1] as usize];
     let inside = |t: &[DVec2; 3], p: DVec2| {
         let s = [(t[1] - t[0]).perp_dot(p - t[0]), (t[2] - t[1]).perp_dot(p - t[1]), (t[0] - t[2]).perp_dot(p - t[2])];
         let tol = -1e-12 * (t[1] - t[0]).perp_dot(t[2] - t[0]).abs();
         s.iter().all(|&v| v >= tol)
     };
-    let mut missed = vec![false; nx * ny];
-    for j in 0..ny {
-        for i in 0..nx {
-            let p = lo + DVec2::new(i as f64, j as f64) * step;
-            let d = ctx.d(p)?;
-            if d >= 0.0 {
-                continue;
-            }
-            let g = if ctx.domain.is_distance() { 1.0 } else { ctx.domain.gradient(p).length() };
-            let depth = -approx_distance(d, g, ctx.domain.is_distance());
-            if depth <= DEPTH * opts.h0 * ctx.h(p)? {
-                continue;
-            }
-            let c = cell(p);
-            let covered = [c, [c[0].saturating_sub(1), c[1]], [c[0], c[1].saturating_sub(1)]]
-                .iter()
-                .filter_map(|c| cells.get(c))
-                .flatten()
-                .any(|&k| inside(&tris[k as usize], p));
-            missed[i + nx * j] = !covered;
-        }
-    }
+    // The samples, a row at a time in parallel.
+    let rows: Vec<Vec<bool>> = (0..ny)
+        .into_par_iter()
+        .map(|j| {
+            (0..nx)
+                .map(|i| {
+                    let p = lo + DVec2::new(i as f64, j as f64) * step;
+                    let d = ctx.d(p)?;
+                    if d >= 0.0 {
+                        return Ok(false);
+                    }
+                    let g = if ctx.domain.is_distance() { 1.0 } else { ctx.domain.gradient(p).length() };
+                    let depth = -approx_distance(d, g, ctx.domain.is_distance());
+                    if depth <= DEPTH * opts.h0 * ctx.h(p)? {
+                        return Ok(false);
+                    }
+                    let c = cell(p);
+                    let covered = [c, [c[0].saturating_sub(1), c[1]], [c[0], c[1].saturating_sub(1)]]
+                        .iter()
+                        .flat_map(|&c| bucket(c))
+                        .any(|&k| inside(&tris[k as usize], p));
+                    Ok(!covered)
+                })
+                .collect::<Result<Vec<bool>, Error>>()
+        })
+        .collect::<Result<Vec<Vec<bool>>, Error>>()?;
+    let missed: Vec<bool> = rows.into_iter().flatten().collect();
     // Group the missed samples into parts (8-connected on the grid), one note each.
     let (mut notes, mut by_size) = (Vec::new(), Vec::new());
     let mut seen = vec![false; nx * ny];

@@ -460,10 +460,16 @@ pub(crate) fn run_moving(
     if let Err(e) = mesh.validate(Level::Geometry) {
         return Err(Error::broken("the finished mesh is invalid", e));
     }
+    if trace {
+        eprintln!("validated at {:.3} s", t0.elapsed().as_secs_f64());
+    }
     if start.is_none() && freeze.is_none() {
         let (notes, by_size) = coverage::uncovered(&ctx, &mesh)?;
         ctx.report.notes.extend(notes);
         ctx.report.dropped_by_size = by_size;
+        if trace {
+            eprintln!("coverage checked at {:.3} s", t0.elapsed().as_secs_f64());
+        }
     }
     let mut report = ctx.report;
     report.seconds = t0.elapsed().as_secs_f64();
