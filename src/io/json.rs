@@ -2,7 +2,7 @@
 //! serde_json's default float parsing is not always exact, and we want every error to carry
 //! a line number.
 
-use super::text::{fmt_f64, parse_f64, perr};
+use super::text::{parse_f64, perr};
 use super::{CellType, MeshData};
 use crate::Error;
 
@@ -270,6 +270,11 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
 }
 
 pub(crate) fn write(m: &MeshData) -> String {
+    use rayon::prelude::*;
+    use std::fmt::Write;
+    // Rows formatted straight into strings (no string per number), blocks of rows in parallel
+    // and joined in order: the same bytes for any thread count.
+    const BLOCK: usize = 1 << 14;
     let mut s = String::new();
     s.push_str(&format!("{{\n  \"dim\": {},\n", m.dim));
     let ct = match m.cell_type {
@@ -277,18 +282,45 @@ pub(crate) fn write(m: &MeshData) -> String {
         CellType::Tetra => "tetra",
     };
     s.push_str(&format!("  \"cell_type\": \"{ct}\",\n  \"points\": [\n"));
-    for (i, p) in m.points.iter().enumerate() {
-        let cs: Vec<String> = p[..m.dim].iter().map(|&x| fmt_f64(x)).collect();
-        let sep = if i + 1 < m.points.len() { "," } else { "" };
-        s.push_str(&format!("    [{}]{sep}\n", cs.join(", ")));
-    }
+    let np = m.points.len();
+    let blocks: Vec<String> = (0..np.div_ceil(BLOCK))
+        .into_par_iter()
+        .map(|b| {
+            let mut out = String::with_capacity(48 * BLOCK);
+            for i in b * BLOCK..((b + 1) * BLOCK).min(np) {
+                out.push_str("    [");
+                for (k, &x) in m.points[i][..m.dim].iter().enumerate() {
+                    if k > 0 {
+                        out.push_str(", ");
+                    }
+                    let _ = write!(out, "{x:?}");
+                }
+                out.push_str(if i + 1 < np { "],\n" } else { "]\n" });
+            }
+            out
+        })
+        .collect();
+    blocks.iter().for_each(|b| s.push_str(b));
     s.push_str("  ],\n  \"cells\": [\n");
     let n = m.num_cells();
-    for i in 0..n {
-        let cs: Vec<String> = m.cell(i).iter().map(|v| v.to_string()).collect();
-        let sep = if i + 1 < n { "," } else { "" };
-        s.push_str(&format!("    [{}]{sep}\n", cs.join(", ")));
-    }
+    let blocks: Vec<String> = (0..n.div_ceil(BLOCK))
+        .into_par_iter()
+        .map(|b| {
+            let mut out = String::with_capacity(24 * BLOCK);
+            for i in b * BLOCK..((b + 1) * BLOCK).min(n) {
+                out.push_str("    [");
+                for (k, v) in m.cell(i).iter().enumerate() {
+                    if k > 0 {
+                        out.push_str(", ");
+                    }
+                    let _ = write!(out, "{v}");
+                }
+                out.push_str(if i + 1 < n { "],\n" } else { "]\n" });
+            }
+            out
+        })
+        .collect();
+    blocks.iter().for_each(|b| s.push_str(b));
     s.push_str("  ]");
     if let Some(sd) = &m.subdomain {
         let ls: Vec<String> = sd.iter().map(|v| v.to_string()).collect();
