@@ -269,12 +269,30 @@ pub(crate) fn read(s: &str, path: &str) -> Result<MeshData, Error> {
     Ok(MeshData { dim, cell_type, points, cells, subdomain })
 }
 
-pub(crate) fn write(m: &MeshData) -> String {
+/// Appends rows 0..n to `s`, each "    [...]" with `row` writing its numbers and a comma after
+/// all but the last: formatted straight into strings (no string per number), in blocks of rows
+/// in parallel joined in order, so the same bytes for any thread count. `width` is a guess of
+/// a row's length.
+fn rows(s: &mut String, n: usize, width: usize, row: impl Fn(usize, &mut String) + Sync) {
     use rayon::prelude::*;
-    use std::fmt::Write;
-    // Rows formatted straight into strings (no string per number), blocks of rows in parallel
-    // and joined in order: the same bytes for any thread count.
     const BLOCK: usize = 1 << 14;
+    let blocks: Vec<String> = (0..n.div_ceil(BLOCK))
+        .into_par_iter()
+        .map(|b| {
+            let mut out = String::with_capacity(width * BLOCK);
+            for i in b * BLOCK..((b + 1) * BLOCK).min(n) {
+                out.push_str("    [");
+                row(i, &mut out);
+                out.push_str(if i + 1 < n { "],\n" } else { "]\n" });
+            }
+            out
+        })
+        .collect();
+    blocks.iter().for_each(|b| s.push_str(b));
+}
+
+pub(crate) fn write(m: &MeshData) -> String {
+    use std::fmt::Write;
     let mut s = String::new();
     s.push_str(&format!("{{\n  \"dim\": {},\n", m.dim));
     let ct = match m.cell_type {
@@ -282,45 +300,23 @@ pub(crate) fn write(m: &MeshData) -> String {
         CellType::Tetra => "tetra",
     };
     s.push_str(&format!("  \"cell_type\": \"{ct}\",\n  \"points\": [\n"));
-    let np = m.points.len();
-    let blocks: Vec<String> = (0..np.div_ceil(BLOCK))
-        .into_par_iter()
-        .map(|b| {
-            let mut out = String::with_capacity(48 * BLOCK);
-            for i in b * BLOCK..((b + 1) * BLOCK).min(np) {
-                out.push_str("    [");
-                for (k, &x) in m.points[i][..m.dim].iter().enumerate() {
-                    if k > 0 {
-                        out.push_str(", ");
-                    }
-                    let _ = write!(out, "{x:?}");
-                }
-                out.push_str(if i + 1 < np { "],\n" } else { "]\n" });
+    rows(&mut s, m.points.len(), 48, |i, out| {
+        for (k, &x) in m.points[i][..m.dim].iter().enumerate() {
+            if k > 0 {
+                out.push_str(", ");
             }
-            out
-        })
-        .collect();
-    blocks.iter().for_each(|b| s.push_str(b));
+            let _ = write!(out, "{x:?}");
+        }
+    });
     s.push_str("  ],\n  \"cells\": [\n");
-    let n = m.num_cells();
-    let blocks: Vec<String> = (0..n.div_ceil(BLOCK))
-        .into_par_iter()
-        .map(|b| {
-            let mut out = String::with_capacity(24 * BLOCK);
-            for i in b * BLOCK..((b + 1) * BLOCK).min(n) {
-                out.push_str("    [");
-                for (k, v) in m.cell(i).iter().enumerate() {
-                    if k > 0 {
-                        out.push_str(", ");
-                    }
-                    let _ = write!(out, "{v}");
-                }
-                out.push_str(if i + 1 < n { "],\n" } else { "]\n" });
+    rows(&mut s, m.num_cells(), 24, |i, out| {
+        for (k, v) in m.cell(i).iter().enumerate() {
+            if k > 0 {
+                out.push_str(", ");
             }
-            out
-        })
-        .collect();
-    blocks.iter().for_each(|b| s.push_str(b));
+            let _ = write!(out, "{v}");
+        }
+    });
     s.push_str("  ]");
     if let Some(sd) = &m.subdomain {
         let ls: Vec<String> = sd.iter().map(|v| v.to_string()).collect();

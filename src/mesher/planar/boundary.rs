@@ -3,7 +3,7 @@ use super::*;
 /// Tags `Fixed` every non-fixed node farther than `rings` edges from the nodes where the old
 /// and new distance functions differ; returns them so that their tags can be restored.
 pub(super) fn freeze_far_nodes(ctx: &Ctx, m: &mut TriMesh<DVec2>, fz: &Freeze) -> Result<Vec<VertexId>, Error> {
-    let mut ring: SecondaryMap<VertexId, usize> = SecondaryMap::new();
+    let mut ring: SecondaryMap<VertexId, u32> = SecondaryMap::new();
     let mut front: Vec<VertexId> = Vec::new();
     for v in m.vertex_ids() {
         let p = m.pos(v);
@@ -16,18 +16,7 @@ pub(super) fn freeze_far_nodes(ctx: &Ctx, m: &mut TriMesh<DVec2>, fz: &Freeze) -
             front.push(v);
         }
     }
-    for k in 1..=fz.rings {
-        let mut next = Vec::new();
-        for &v in &front {
-            for w in m.neighbours(v) {
-                if !ring.contains_key(w) {
-                    ring.insert(w, k);
-                    next.push(w);
-                }
-            }
-        }
-        front = next;
-    }
+    within_rings(m, &mut ring, front, fz.rings);
     let frozen: Vec<VertexId> =
         m.vertex_ids().filter(|&v| !ring.contains_key(v) && m.tag(v) != VertexTag::Fixed).collect();
     for &v in &frozen {

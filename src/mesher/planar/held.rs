@@ -41,7 +41,7 @@ impl HeldCore {
     /// has no boundary).
     pub(super) fn find(m: &TriMesh<DVec2>, rings: usize) -> Option<HeldCore> {
         let mut depth: SecondaryMap<VertexId, u32> = SecondaryMap::with_capacity(m.num_vertices());
-        let mut front: Vec<VertexId> =
+        let front: Vec<VertexId> =
             m.vertex_ids().filter(|&v| m.is_boundary_vertex(v) || m.tag(v) == VertexTag::Fixed).collect();
         if front.is_empty() {
             return None;
@@ -49,18 +49,7 @@ impl HeldCore {
         for &v in &front {
             depth.insert(v, 0);
         }
-        for r in 1..=rings as u32 {
-            let mut next = Vec::new();
-            for &v in &front {
-                for w in m.neighbours(v) {
-                    if !depth.contains_key(w) {
-                        depth.insert(w, r);
-                        next.push(w);
-                    }
-                }
-            }
-            front = next;
-        }
+        within_rings(m, &mut depth, front, rings);
         let held: SecondaryMap<VertexId, ()> =
             m.vertex_ids().filter(|&v| !depth.contains_key(v)).map(|v| (v, ())).collect();
         if (held.len() as f64) < CORE_SHARE * m.num_vertices() as f64 {

@@ -489,3 +489,20 @@ fn peak_memory() -> String {
 }
 
 // ============================ initial mesh ============================
+
+/// Marks the vertices within `rings` edges of the marked vertices `front` (already in `ring`,
+/// at ring 0) with their ring, breadth first.
+fn within_rings(m: &TriMesh<DVec2>, ring: &mut SecondaryMap<VertexId, u32>, mut front: Vec<VertexId>, rings: usize) {
+    for k in 1..=rings as u32 {
+        let mut next = Vec::new();
+        for &v in &front {
+            for w in m.neighbours(v) {
+                if !ring.contains_key(w) {
+                    ring.insert(w, k);
+                    next.push(w);
+                }
+            }
+        }
+        front = next;
+    }
+}

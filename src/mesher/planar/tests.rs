@@ -82,26 +82,22 @@ fn held_core_leaves_the_band_whole() {
     let rings = 10;
     let core = held::HeldCore::find(&m, rings).expect("a core");
     assert!(!core.held.contains_key(centre));
-    // Depth by a breadth-first walk from the boundary and the fixed vertex.
-    let mut depth: SecondaryMap<VertexId, usize> = SecondaryMap::new();
-    let mut front: Vec<VertexId> =
-        m.vertex_ids().filter(|&v| m.is_boundary_vertex(v) || m.tag(v) == VertexTag::Fixed).collect();
-    for &v in &front {
-        depth.insert(v, 0);
-    }
-    let mut r = 0;
-    while !front.is_empty() {
-        r += 1;
-        let mut next = Vec::new();
-        for &v in &front {
-            for w in m.neighbours(v) {
-                if !depth.contains_key(w) {
-                    depth.insert(w, r);
-                    next.push(w);
-                }
+    // Depth from the boundary and the fixed vertex, by relaxing every vertex against its
+    // neighbours until nothing changes (independent of the breadth-first walk of `find`).
+    let mut depth: SecondaryMap<VertexId, usize> = m
+        .vertex_ids()
+        .map(|v| (v, if m.is_boundary_vertex(v) || m.tag(v) == VertexTag::Fixed { 0 } else { usize::MAX }))
+        .collect();
+    let mut changed = true;
+    while changed {
+        changed = false;
+        for v in m.vertex_ids() {
+            let best = m.neighbours(v).iter().map(|&w| depth[w].saturating_add(1)).min().unwrap_or(usize::MAX);
+            if best < depth[v] {
+                depth[v] = best;
+                changed = true;
             }
         }
-        front = next;
     }
     for v in m.vertex_ids() {
         assert_eq!(core.held.contains_key(v), depth[v] > rings, "depth {}", depth[v]);
