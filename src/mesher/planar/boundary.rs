@@ -393,13 +393,10 @@ pub(super) fn close_slit(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, v: VertexId) -> 
 /// control, so that a slit or a flat tongue does not stay for the rest of the run. Returns
 /// whether the topology changed.
 ///
-/// `seeds` (when given) has a vertex of every boundary loop: the loops are walked from them
-/// instead of scanning every vertex of the mesh (the band of a large mesh).
-pub(super) fn close_slits(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, seeds: Option<&[VertexId]>) -> Result<bool, Error> {
-    let boundary: Vec<VertexId> = match seeds {
-        Some(seeds) => loop_vertices(m, seeds),
-        None => m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).collect(),
-    };
+/// `seeds` has a vertex of every boundary loop: the loops are walked from them instead of
+/// scanning every vertex of the mesh (the band of a large mesh).
+pub(super) fn close_slits(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, seeds: &[VertexId]) -> Result<bool, Error> {
+    let boundary = loop_vertices(m, seeds);
     let mut off: Vec<VertexId> = Vec::new();
     for &v in &boundary {
         if m.tag(v) == VertexTag::Boundary && ctx.approx_dist(m.pos(v))?.abs() > ctx.geps {
@@ -412,10 +409,7 @@ pub(super) fn close_slits(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, seeds: Option<&
             changed |= close_slit(ctx, m, v)?;
         }
     }
-    let queue: Vec<VertexId> = match seeds {
-        Some(_) => loop_vertices(m, &boundary),
-        None => m.vertex_ids().filter(|&v| m.is_boundary_vertex(v)).collect(),
-    };
+    let queue = loop_vertices(m, &boundary);
     Ok(peel_flat_ears_from(ctx, m, queue)? > 0 || changed)
 }
 

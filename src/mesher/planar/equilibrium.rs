@@ -471,7 +471,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                 }
                 let loops: Vec<VertexId> =
                     snap.loop_edges.iter().map(|e| snap.ids[e[0] as usize]).filter(|&v| m.contains_vertex(v)).collect();
-                topo_changed |= close_slits(ctx, m, Some(&loops))?;
+                topo_changed |= close_slits(ctx, m, &loops)?;
             }
             unit = rest.unit();
             munit = unit;
