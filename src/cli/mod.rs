@@ -112,7 +112,8 @@ pub fn main() -> i32 {
         }
         eprintln!("error: internal failure (please report): {text}");
     }));
-    match catch_unwind(AssertUnwindSafe(|| run(cli))) {
+    // On a thread of rayon's pool (see `trussmesh::mesher::on_pool`).
+    match catch_unwind(AssertUnwindSafe(|| trussmesh::mesher::on_pool(|| run(cli)))) {
         Ok(Ok(())) => 0,
         Ok(Err(f)) => {
             eprintln!("error: {}", f.message);

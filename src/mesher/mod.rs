@@ -86,7 +86,19 @@ pub fn estimated_elements(survey: Survey<'_>) -> Result<f64, crate::Error> {
 /// assert!(out.report.quality.dihedral_min > 5.0);
 /// ```
 pub fn mesh_3d(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, crate::Error> {
-    volume::run(domain, opts)
+    on_pool(|| volume::run(domain, opts))
+}
+
+/// Runs `f` on a thread of rayon's pool. The meshers run many parallel loops over a few
+/// hundred items; called from a thread outside the pool, each would hand its work over to the
+/// pool and wait for it (microseconds apiece, thousands of times on a small mesh), where a
+/// thread of the pool runs a loop too short to split at once.
+pub fn on_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    if rayon::current_thread_index().is_some() {
+        f()
+    } else {
+        rayon::scope(|_| f())
+    }
 }
 
 /// Meshes {d < 0} in 2-D.
@@ -98,6 +110,10 @@ pub fn mesh_3d(domain: &dyn Implicit3, opts: &Options3) -> Result<MeshOutput3, c
 /// assert!(out.report.quality.q_min > 0.7);
 /// ```
 pub fn mesh_2d(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, crate::Error> {
+    on_pool(|| mesh_2d_here(domain, opts))
+}
+
+fn mesh_2d_here(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, crate::Error> {
     match opts.strategy {
         Strategy::Local => planar::run(domain, opts),
         Strategy::GlobalDelaunay if opts.internal.is_some() || opts.metric.is_some() => Err(crate::Error::Invalid(
@@ -116,7 +132,7 @@ pub fn mesh_2d(domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, c
 ///
 /// An invalid start (an inverted or broken element) is an `Error::InvalidMesh`.
 pub fn remesh_2d(prev: &TriMesh<DVec2>, domain: &dyn Implicit2, opts: &Options2) -> Result<MeshOutput2, crate::Error> {
-    planar::run_from(domain, opts, Some(prev))
+    on_pool(|| planar::run_from(domain, opts, Some(prev)))
 }
 
 /// Remeshing for adaptation (seed section 5.2): the old mesh is the background for d (its
@@ -182,5 +198,13 @@ pub fn move_mesh_2d(
     opts: &Options2,
     freeze_rings: usize,
 ) -> Result<MeshOutput2, crate::Error> {
-    planar::run_moving(new_domain, opts, Some(prev), Some(planar::Freeze { old_domain, rings: freeze_rings }), false)
+    on_pool(|| {
+        planar::run_moving(
+            new_domain,
+            opts,
+            Some(prev),
+            Some(planar::Freeze { old_domain, rings: freeze_rings }),
+            false,
+        )
+    })
 }

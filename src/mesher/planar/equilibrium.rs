@@ -113,6 +113,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     // The best state met, for the iteration cap (not in a moving-mesh step with frozen nodes,
     // whose vertex keys must survive the loop).
     let mut best = BestState::default();
+    let t_loop = Instant::now();
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
         eprintln!("equilibrium entered, peak {}", peak_memory());
         let mut val = [0usize; 12];
@@ -575,7 +576,8 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
                     eprintln!("  worst triangle at ({:.4}, {:.4}): corners (kind, valence) {kinds:?}", c.x, c.y);
                 }
                 eprintln!(
-                    "iter {iter}: q mean {q:.5}, q min {q_min:.4}, max move {max_move:.2e}, {} vertices, flips {} splits {} collapses {} left {} joined {}",
+                    "iter {iter} ({:.3} s): q mean {q:.5}, q min {q_min:.4}, max move {max_move:.2e}, {} vertices, flips {} splits {} collapses {} left {} joined {}",
+                    t_loop.elapsed().as_secs_f64(),
                     p.len(),
                     ctx.report.ops.flips,
                     ctx.report.ops.splits,

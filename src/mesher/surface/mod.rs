@@ -137,6 +137,10 @@ const PROJECT_TOL: f64 = 1e-9;
 /// ([`Creases::triangulation`](crate::geometry::Creases::triangulation)), before the 3-D mesh's
 /// boundary and then the smooth mesh are the result.
 pub fn mesh_surface(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
+    crate::mesher::on_pool(|| mesh_surface_here(phi, opts))
+}
+
+fn mesh_surface_here(phi: &dyn Implicit3, opts: &SurfaceOptions) -> Result<SurfaceOutput, Error> {
     // The size field once for every run below (on a grid from --size auto it may take longer
     // than the meshing); its time counts in the report's.
     let t0 = std::time::Instant::now();
