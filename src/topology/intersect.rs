@@ -17,8 +17,16 @@ fn opposite(a: Sign, b: Sign) -> bool {
     matches!((a, b), (Sign::Positive, Sign::Negative) | (Sign::Negative, Sign::Positive))
 }
 
-/// Whether the closed segments pq and rs share a point.
+/// Whether the closed segments pq and rs share a point. Segments whose boxes are apart cannot
+/// meet (exact comparisons): most pairs asked about are, and skip the four predicates.
 pub(crate) fn segments_meet(p: DVec2, q: DVec2, r: DVec2, s: DVec2) -> bool {
+    if p.x.max(q.x) < r.x.min(s.x)
+        || r.x.max(s.x) < p.x.min(q.x)
+        || p.y.max(q.y) < r.y.min(s.y)
+        || r.y.max(s.y) < p.y.min(q.y)
+    {
+        return false;
+    }
     let (o1, o2) = (orient2d(p, q, r), orient2d(p, q, s));
     let (o3, o4) = (orient2d(r, s, p), orient2d(r, s, q));
     if opposite(o1, o2) && opposite(o3, o4) {

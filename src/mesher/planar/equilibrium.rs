@@ -105,8 +105,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     let mut moved: Vec<u32> = Vec::new();
     let mut need_full = true;
     let mut scale_sums = (0.0, 0.0);
-    let mut marks = Marks::default();
-    let mut tri_marks = Marks::default();
+    let mut flags = Flags::default();
     let mut swept = 0usize;
     let mut build_s = 0.0;
     let (mut full_s, mut part_s, mut full_n, mut end_s) = (0.0, 0.0, 0usize, 0.0);
@@ -141,7 +140,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         let full = need_full || !large || metric.is_some() || ctx.from_previous || iter % window == 1;
         need_full = false;
         let active: Vec<u32> =
-            if full { (0..p.len() as u32).collect() } else { snap.with_neighbours(&moved, &mut marks) };
+            if full { (0..p.len() as u32).collect() } else { snap.with_neighbours(&moved, &mut flags) };
         swept += active.len();
         if metric.is_some() {
             mv = p.par_iter().map(|&x| ctx.metric_at(x)).collect::<Result<Vec<Metric2>, Error>>()?;
@@ -394,7 +393,13 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         }
         joining_internal.sort_unstable();
         // Step control: no triangle may invert; vertices of offending triangles step back.
-        let tris = if full { None } else { Some(snap.triangles_of(&active, &mut tri_marks)) };
+        let tris = if full {
+            None
+        } else {
+            let t = snap.triangles_of(&active, &flags);
+            flags.clear(&active);
+            Some(t)
+        };
         snap.guard_inversions(&p, &mut newp, tris.as_deref(), metric.map(|_| &mv[..]));
         // Without a metric, screened: only steps that could fold are checked exactly.
         if metric.is_some() {
@@ -629,7 +634,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         p = snap.ids.iter().map(|&v| m.pos(v)).collect();
     }
     // The loop's working arrays go before the final clean-up allocates (peak memory).
-    drop((pold, newp, hv, moved, mv, slots, marks, tri_marks));
+    drop((pold, newp, hv, moved, mv, slots, flags));
     // Every boundary node ends on d = 0.
     project_boundary(ctx, &snap, &mut p, m)?;
     write_back(m, &snap, &p);

@@ -37,7 +37,7 @@ use crate::geometry::{decide2, Declared, Implicit2};
 use crate::mesher::input::{eval_d, eval_h_floor, survey};
 use crate::mesher::internal::{self, Internal};
 use crate::mesher::metric::{self, eval_metric, metric_triangle_q, Metric2, MetricFn2};
-use crate::mesher::truss::{self, bar_force, det_sum, Backoff, DensityBand, Marks, NodeKind, RestScale, CHUNK};
+use crate::mesher::truss::{self, bar_force, det_sum, Backoff, DensityBand, Flags, NodeKind, RestScale, CHUNK};
 use crate::mesher::MeshOutput2;
 use crate::mesher::Report;
 use crate::predicates::{orient2d, Sign};

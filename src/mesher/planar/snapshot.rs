@@ -609,36 +609,34 @@ impl Snapshot {
         reverted
     }
 
-    /// The given nodes and their neighbours, each once, in order of first appearance.
-    pub(super) fn with_neighbours(&self, nodes: &[u32], marks: &mut Marks) -> Vec<u32> {
-        marks.reset(self.ids.len());
-        let mut out = Vec::with_capacity(4 * nodes.len());
+    /// The given nodes and their neighbours, each once, in increasing order. They stay set in
+    /// `flags` for [`Snapshot::triangles_of`]; clear them after.
+    pub(super) fn with_neighbours(&self, nodes: &[u32], flags: &mut Flags) -> Vec<u32> {
+        flags.fit(self.ids.len());
         for &i in nodes {
-            if marks.mark(i) {
-                out.push(i);
-            }
-            for k in self.adj_start[i as usize]..self.adj_start[i as usize + 1] {
-                let j = self.adj[k as usize];
-                if marks.mark(j) {
-                    out.push(j);
-                }
+            flags.set(i);
+            for &j in &self.adj[self.adj_start[i as usize] as usize..self.adj_start[i as usize + 1] as usize] {
+                flags.set(j);
             }
         }
-        out
+        flags.set_indices()
     }
 
-    /// The triangles of the given vertices, each once, in order of first appearance.
-    pub(super) fn triangles_of(&self, vertices: &[u32], marks: &mut Marks) -> Vec<u32> {
-        marks.reset(self.tris.len());
-        let mut out = Vec::with_capacity(2 * vertices.len());
-        for &v in vertices {
-            for &t in self.vt.of(v as usize) {
-                if marks.mark(t) {
-                    out.push(t);
-                }
-            }
-        }
-        out
+    /// The triangles with a corner in `vertices` (those set in `flags`, in increasing order),
+    /// each once: from its lowest corner in the set, so in parallel and in the same order for
+    /// any thread count.
+    pub(super) fn triangles_of(&self, vertices: &[u32], flags: &Flags) -> Vec<u32> {
+        vertices
+            .par_iter()
+            .with_min_len(CHUNK / 8)
+            .flat_map_iter(|&v| {
+                self.vt
+                    .of(v as usize)
+                    .iter()
+                    .copied()
+                    .filter(move |&t| self.tris[t as usize].iter().all(|&c| c >= v || !flags.get(c)))
+            })
+            .collect()
     }
 
     /// Edges that fail the exact in-circle test at positions `p`, found in parallel.

@@ -50,6 +50,6 @@ pub(crate) mod stop;
 
 pub use band::DensityBand;
 pub(crate) use force::{bar_force, RestScale};
-pub(crate) use parallel::{det_sum, Marks, CHUNK};
+pub(crate) use parallel::{det_sum, Flags, CHUNK};
 pub(crate) use step::{backtrack, guard_inversions, Backoff};
 pub(crate) use stop::Plateau;

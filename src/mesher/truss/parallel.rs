@@ -1,4 +1,4 @@
-//! Deterministic parallel sums and marks cleared in O(1), for the force loops' hot paths.
+//! Deterministic parallel sums and membership flags, for the force loops' hot paths.
 
 use rayon::prelude::*;
 
@@ -23,28 +23,39 @@ pub(crate) fn det_sum(n: usize, f: impl Fn(usize) -> (f64, f64) + Sync) -> (f64,
     parts.iter().fold((0.0, 0.0), |acc, s| (acc.0 + s.0, acc.1 + s.1))
 }
 
-/// Membership marks over `0..n` that are cleared in O(1): a generation counter.
+/// Membership flags over `0..n`, read back in index order ([`Flags::set_indices`]): a set
+/// of nodes in an order that does not depend on how it was gathered.
 #[derive(Default)]
-pub(crate) struct Marks {
-    stamp: Vec<u32>,
-    now: u32,
-}
+pub(crate) struct Flags(Vec<bool>);
 
-impl Marks {
-    /// Forgets every mark; makes room for `n` items.
-    pub(crate) fn reset(&mut self, n: usize) {
-        if self.stamp.len() != n || self.now == u32::MAX {
-            self.stamp = vec![0; n];
-            self.now = 0;
+impl Flags {
+    /// Makes room for `n` items, all clear (a new size clears; otherwise they must be clear).
+    pub(crate) fn fit(&mut self, n: usize) {
+        if self.0.len() != n {
+            self.0 = vec![false; n];
         }
-        self.now += 1;
     }
-    /// Marks i; true when it was not marked yet.
-    pub(crate) fn mark(&mut self, i: u32) -> bool {
-        let s = &mut self.stamp[i as usize];
-        let fresh = *s != self.now;
-        *s = self.now;
-        fresh
+    pub(crate) fn set(&mut self, i: u32) {
+        self.0[i as usize] = true;
+    }
+    pub(crate) fn get(&self, i: u32) -> bool {
+        self.0[i as usize]
+    }
+    /// The set items, in increasing order (eight flags at a time: most are clear).
+    pub(crate) fn set_indices(&self) -> Vec<u32> {
+        let mut out = Vec::new();
+        for (c, w) in self.0.chunks(8).enumerate() {
+            if w.iter().any(|&f| f) {
+                out.extend(w.iter().enumerate().filter(|x| *x.1).map(|(k, _)| (8 * c + k) as u32));
+            }
+        }
+        out
+    }
+    /// Clears the items `set` (all that are set).
+    pub(crate) fn clear(&mut self, set: &[u32]) {
+        for &i in set {
+            self.0[i as usize] = false;
+        }
     }
 }
 
@@ -61,12 +72,15 @@ mod tests {
     }
 
     #[test]
-    fn marks_clear_between_generations() {
-        let mut m = Marks::default();
-        m.reset(4);
-        assert!(m.mark(2));
-        assert!(!m.mark(2));
-        m.reset(4);
-        assert!(m.mark(2));
+    fn flags_read_back_in_order_and_clear() {
+        let mut f = Flags::default();
+        f.fit(3 * CHUNK);
+        for i in (0..3 * CHUNK as u32).rev().filter(|i| i % 7 == 3) {
+            f.set(i);
+        }
+        let set = f.set_indices();
+        assert_eq!(set, (0..3 * CHUNK as u32).filter(|i| i % 7 == 3).collect::<Vec<_>>());
+        f.clear(&set);
+        assert!(f.set_indices().is_empty());
     }
 }
