@@ -287,9 +287,18 @@ fn probe<const N: usize>(
     method: Projection,
     tol: f64,
 ) -> Result<Option<Probe<N>>, ProjectError> {
-    let (phi, grad) = eval(g, x)?;
-    if phi == 0.0 {
+    let phi = g.value(x);
+    if !phi.is_finite() {
+        return Err(ProjectError::NonFinite { value: phi, kind: NonFiniteIn::Value, at: at3(&x) });
+    }
+    // Exact: the residual is |phi|, and a point already on d = 0 needs no gradient (the
+    // last probe of every projection).
+    if phi == 0.0 || (method == Projection::Exact && phi.abs() < tol) {
         return Ok(None);
+    }
+    let grad = g.gradient(x);
+    if let Some(value) = first_non_finite(&grad) {
+        return Err(ProjectError::NonFinite { value, kind: NonFiniteIn::Gradient, at: at3(&x) });
     }
     let g2 = dot(grad, grad);
     if !(g2 > 0.0) {
