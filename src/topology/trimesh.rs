@@ -15,6 +15,7 @@
 use super::Refusal;
 use crate::predicates::{orient2d, Sign};
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
 use slotmap::{new_key_type, SlotMap};
 use smallvec::SmallVec;
 
@@ -603,13 +604,22 @@ impl<P: MeshPoint> TriMesh<P> {
         // Each vertex's half-edges sorted by destination: a repeated side is two neighbours in
         // its list, and a twin is a binary search (a fan of many triangles around one vertex
         // stays cheap).
-        for a in 0..n {
-            by_origin[start[a] as usize..start[a + 1] as usize].sort_unstable_by_key(|&e| (side(e as usize).1, e));
+        {
+            let mut lists: Vec<&mut [u32]> = Vec::with_capacity(n);
+            let mut rest: &mut [u32] = &mut by_origin;
+            for a in 0..n {
+                let (list, tail) = rest.split_at_mut((start[a + 1] - start[a]) as usize);
+                lists.push(list);
+                rest = tail;
+            }
+            lists.par_iter_mut().with_min_len(4096).for_each(|l| l.sort_unstable_by_key(|&e| (side(e as usize).1, e)));
         }
         let leaving = |a: usize| &by_origin[start[a] as usize..start[a + 1] as usize];
         // The first triangle (in input order) that repeats a side of an earlier one.
         let repeated = (0..n)
-            .flat_map(|a| leaving(a).windows(2))
+            .into_par_iter()
+            .with_min_len(4096)
+            .flat_map_iter(|a| leaving(a).windows(2))
             .filter(|w| side(w[0] as usize).1 == side(w[1] as usize).1)
             .map(|w| w[1] as usize)
             .min();
@@ -641,12 +651,21 @@ impl<P: MeshPoint> TriMesh<P> {
             }
             m.faces[f].half_edge = hs[0];
         }
-        // Twins; create boundary half-edges where the opposite side is missing.
+        // Twins (found in parallel); create boundary half-edges where the opposite side is
+        // missing.
+        let twin_of: Vec<u32> = (0..ne)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|e| {
+                let (a, b) = side(e);
+                leaving(b).binary_search_by_key(&a, |&x| side(x as usize).1).map_or(u32::MAX, |x| leaving(b)[x])
+            })
+            .collect();
         let mut boundary: Vec<(HalfEdgeId, usize)> = Vec::new();
         for (e, &h) in hid.iter().enumerate() {
-            let (a, b) = side(e);
-            if let Ok(x) = leaving(b).binary_search_by_key(&a, |&x| side(x as usize).1) {
-                m.half_edges[h].twin = hid[leaving(b)[x] as usize];
+            let b = side(e).1;
+            if twin_of[e] != u32::MAX {
+                m.half_edges[h].twin = hid[twin_of[e] as usize];
             } else {
                 let t =
                     m.half_edges.insert(HalfEdge { origin: ids[b], twin: h, next: HalfEdgeId::default(), face: None });
@@ -674,13 +693,12 @@ impl<P: MeshPoint> TriMesh<P> {
             }
         }
         // Manifold check: the ring walk from out must visit every outgoing half-edge.
-        for (i, &v) in ids.iter().enumerate() {
+        let fans = (0..n).into_par_iter().with_min_len(4096).find_first(|&i| {
             let count = (start[i + 1] - start[i]) as usize + has_boundary_out[i] as usize;
-            if m.outgoing(v).len() != count {
-                return Err(InvalidMesh(format!(
-                    "point {i} is a non-manifold vertex (its triangles form several fans)"
-                )));
-            }
+            m.outgoing(ids[i]).len() != count
+        });
+        if let Some(i) = fans {
+            return Err(InvalidMesh(format!("point {i} is a non-manifold vertex (its triangles form several fans)")));
         }
         Ok((m, ids))
     }
