@@ -23,6 +23,7 @@ fn main() {
     println!("node kinds   {:.4} s", best(|| m.boundary_nodes()));
     println!("quality      {:.4} s", best(|| triangle_q_values(&m)));
     println!("bytes        {:.4} s", best(|| write_mesh_bytes_with(&m, Format::Vtu, Encoding::Binary).unwrap()));
+    println!("json bytes   {:.4} s", best(|| write_mesh_bytes_with(&m, Format::Json, Encoding::Ascii).unwrap()));
     let dir = std::env::temp_dir().join(format!("trussmesh-io-timing-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("m.vtu");

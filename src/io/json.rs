@@ -288,6 +288,7 @@ fn rows(s: &mut String, n: usize, width: usize, row: impl Fn(usize, &mut String)
             out
         })
         .collect();
+    s.reserve(blocks.iter().map(String::len).sum());
     blocks.iter().for_each(|b| s.push_str(b));
 }
 
@@ -301,20 +302,26 @@ pub(crate) fn write(m: &MeshData) -> String {
     };
     s.push_str(&format!("  \"cell_type\": \"{ct}\",\n  \"points\": [\n"));
     rows(&mut s, m.points.len(), 48, |i, out| {
+        let mut buf = zmij::Buffer::new();
         for (k, &x) in m.points[i][..m.dim].iter().enumerate() {
             if k > 0 {
                 out.push_str(", ");
             }
-            let _ = write!(out, "{x:?}");
+            if x.is_finite() {
+                out.push_str(buf.format_finite(x));
+            } else {
+                let _ = write!(out, "{x:?}");
+            }
         }
     });
     s.push_str("  ],\n  \"cells\": [\n");
     rows(&mut s, m.num_cells(), 24, |i, out| {
-        for (k, v) in m.cell(i).iter().enumerate() {
+        let mut buf = itoa::Buffer::new();
+        for (k, &v) in m.cell(i).iter().enumerate() {
             if k > 0 {
                 out.push_str(", ");
             }
-            let _ = write!(out, "{v}");
+            out.push_str(buf.format(v));
         }
     });
     s.push_str("  ]");
@@ -324,4 +331,44 @@ pub(crate) fn write(m: &MeshData) -> String {
     }
     s.push_str("\n}\n");
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Coordinates come back bit for bit, whatever their size (shortest round-trip digits).
+    #[test]
+    fn coordinates_round_trip_exactly() {
+        let xs = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            0.1,
+            1e-7,
+            -2.5e-300,
+            5e-324,
+            1.7976931348623157e308,
+            123456789.123456789,
+            std::f64::consts::PI,
+            1e16,
+            -1e21,
+        ];
+        let points: Vec<[f64; 3]> = xs.chunks(1).map(|c| [c[0], -c[0], 0.0]).collect();
+        let n = points.len();
+        let m = MeshData {
+            dim: 2,
+            cell_type: CellType::Triangle,
+            points,
+            cells: (0..n - 2).flat_map(|i| [i, i + 1, i + 2]).collect(),
+            subdomain: None,
+        };
+        let back = read(&write(&m), "test").expect("reads back");
+        for (a, b) in m.points.iter().zip(&back.points) {
+            assert_eq!(a[0].to_bits(), b[0].to_bits(), "{} came back as {}", a[0], b[0]);
+            assert_eq!(a[1].to_bits(), b[1].to_bits(), "{} came back as {}", a[1], b[1]);
+        }
+        assert_eq!(m.cells, back.cells);
+    }
 }

@@ -377,10 +377,12 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     };
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = path.with_file_name(format!(".{name}.{}.partial", std::process::id()));
+    // The rename makes the new file appear whole or not at all, to readers and if this process
+    // stops. No sync to the disk before it: that is the file system's business, as for any
+    // ordinary write, and it cost 0.07 to 0.18 s for a 62 MB mesh here.
     let written = (|| {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
-        f.sync_all()?;
         std::fs::rename(&tmp, path)
     })();
     if let Err(e) = written {

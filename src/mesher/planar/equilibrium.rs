@@ -613,7 +613,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         );
     }
     if std::env::var_os("TRUSSMESH_TRACE").is_some() {
-        eprintln!("loop done, peak {}", peak_memory());
+        eprintln!("loop done at {:.3} s of the loop, peak {}", t_loop.elapsed().as_secs_f64(), peak_memory());
     }
     // The iteration cap: the run finishes from the best state met when it beats the last.
     if matches!(stop, StopReason::IterationCap { .. })
