@@ -633,6 +633,7 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
         snap = Snapshot::build(m);
         p = snap.ids.iter().map(|&v| m.pos(v)).collect();
     }
+    ctx.connected = Some(snap.is_connected());
     // The loop's working arrays go before the final clean-up allocates (peak memory).
     drop((pold, newp, hv, moved, mv, slots, flags));
     // Every boundary node ends on d = 0.

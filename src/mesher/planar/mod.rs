@@ -95,6 +95,9 @@ struct Ctx<'a> {
     internal: Option<Internal<'a>>,
     /// The metric of the anisotropic mode, if any (replaces h).
     metric: Option<&'a MetricFn2>,
+    /// Whether the mesh is in one piece, as the force loop found it on its last arrays (splits,
+    /// collapses, flips and moves keep a mesh in one piece or in several).
+    connected: Option<bool>,
 }
 
 impl Ctx<'_> {
@@ -370,6 +373,7 @@ pub(crate) fn run_moving(
         h_floor: survey.h_floor,
         report: Report { feature_points: corners.len(), gradient_survey, level_set: !distance, ..Report::default() },
         left: 0,
+        connected: None,
         joined: 0,
         from_previous: start.is_some(),
         freezing: freeze.is_some(),
@@ -421,7 +425,7 @@ pub(crate) fn run_moving(
             project: &|p| ctx.project(p),
             fscale: opts.fscale,
             dt: opts.deltat,
-            connected: crate::topology::boundary_edges_if_split(&mesh).is_empty(),
+            connected: ctx.connected.unwrap_or_else(|| crate::topology::boundary_edges_if_split(&mesh).is_empty()),
         };
         let changes = if start.is_none() { improve::search(&mut mesh, &geo)? } else { 0 };
         if trace {

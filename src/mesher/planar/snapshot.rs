@@ -609,6 +609,29 @@ impl Snapshot {
         reverted
     }
 
+    /// Whether the mesh of these arrays is in one piece (a walk over the edges; the arrays
+    /// cover the whole mesh, not a band).
+    pub(super) fn is_connected(&self) -> bool {
+        let n = self.ids.len();
+        if n == 0 {
+            return true;
+        }
+        let mut seen = vec![false; n];
+        let mut stack = vec![0u32];
+        seen[0] = true;
+        let mut count = 1;
+        while let Some(v) = stack.pop() {
+            for &w in &self.adj[self.adj_start[v as usize] as usize..self.adj_start[v as usize + 1] as usize] {
+                if !seen[w as usize] {
+                    seen[w as usize] = true;
+                    count += 1;
+                    stack.push(w);
+                }
+            }
+        }
+        count == n
+    }
+
     /// The given nodes and their neighbours, each once, in increasing order. They stay set in
     /// `flags` for [`Snapshot::triangles_of`]; clear them after.
     pub(super) fn with_neighbours(&self, nodes: &[u32], flags: &mut Flags) -> Vec<u32> {
