@@ -98,7 +98,7 @@ impl Sums {
     /// Over the whole mesh.
     pub(super) fn of(m: &TriMesh<DVec2>, h: &dyn Fn(DVec2) -> Result<f64, Error>) -> Result<Sums, Error> {
         let st = Stats::of(m, h)?;
-        let qmin = st.q.values().copied().fold(f64::INFINITY, f64::min);
+        let qmin = st.q.min();
         Ok(Sums { n: st.n, sq: st.sq, s1: st.s1, s2: st.s2, qmin })
     }
     pub(super) fn q_mean(&self) -> f64 {

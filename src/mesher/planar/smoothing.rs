@@ -15,7 +15,11 @@ use super::improve::*;
 use crate::topology::{FaceId, TriMesh, VertexId, VertexTag};
 use crate::Error;
 use glam::DVec2;
-use slotmap::SecondaryMap;
+use rayon::prelude::*;
+use slotmap::{SecondaryMap, SparseSecondaryMap};
+
+/// Faces per piece of the polish's parallel passes over the whole mesh.
+const PAR_FACES: usize = 4096;
 
 /// Sweeps over the interior nodes at most.
 pub(super) const SWEEPS: usize = 30;
@@ -35,9 +39,65 @@ pub(super) const MOVE_GAIN: f64 = 1e-5;
 pub(super) const SWEEP_GAIN: f64 = 1e-7;
 
 /// Quality and relative circumradius of each triangle, and their sums.
+/// A value per face: indexed by the face's slot for a whole mesh or a small one; hashed for a
+/// few faces of a large mesh, where a slot-indexed map would be laid out (and its memory
+/// touched) up to the largest face index at every measure of the polish.
+pub(super) enum FaceValues {
+    Dense(SecondaryMap<FaceId, f64>),
+    Sparse(SparseSecondaryMap<FaceId, f64>),
+}
+
+impl FaceValues {
+    fn for_faces(m: &TriMesh<DVec2>, few: bool) -> FaceValues {
+        if few && m.num_faces() > POLISH_MAX_FACES {
+            FaceValues::Sparse(SparseSecondaryMap::new())
+        } else {
+            FaceValues::Dense(SecondaryMap::new())
+        }
+    }
+    fn insert(&mut self, f: FaceId, x: f64) {
+        match self {
+            FaceValues::Dense(d) => d.insert(f, x),
+            FaceValues::Sparse(s) => s.insert(f, x),
+        };
+    }
+    fn contains_key(&self, f: FaceId) -> bool {
+        match self {
+            FaceValues::Dense(d) => d.contains_key(f),
+            FaceValues::Sparse(s) => s.contains_key(f),
+        }
+    }
+    /// The smallest value.
+    pub(super) fn min(&self) -> f64 {
+        match self {
+            FaceValues::Dense(d) => d.values().copied().fold(f64::INFINITY, f64::min),
+            FaceValues::Sparse(s) => s.values().copied().fold(f64::INFINITY, f64::min),
+        }
+    }
+}
+
+impl std::ops::Index<FaceId> for FaceValues {
+    type Output = f64;
+    fn index(&self, f: FaceId) -> &f64 {
+        match self {
+            FaceValues::Dense(d) => &d[f],
+            FaceValues::Sparse(s) => &s[f],
+        }
+    }
+}
+
+impl std::ops::IndexMut<FaceId> for FaceValues {
+    fn index_mut(&mut self, f: FaceId) -> &mut f64 {
+        match self {
+            FaceValues::Dense(d) => &mut d[f],
+            FaceValues::Sparse(s) => &mut s[f],
+        }
+    }
+}
+
 pub(super) struct Stats {
-    pub(super) q: SecondaryMap<FaceId, f64>,
-    pub(super) s: SecondaryMap<FaceId, f64>,
+    pub(super) q: FaceValues,
+    pub(super) s: FaceValues,
     pub(super) sq: f64,
     pub(super) s1: f64,
     pub(super) s2: f64,
@@ -47,8 +107,8 @@ pub(super) struct Stats {
 impl Stats {
     pub(super) fn of(m: &TriMesh<DVec2>, h: &dyn Fn(DVec2) -> Result<f64, Error>) -> Result<Stats, Error> {
         let mut st = Stats {
-            q: SecondaryMap::new(),
-            s: SecondaryMap::new(),
+            q: FaceValues::for_faces(m, false),
+            s: FaceValues::for_faces(m, false),
             sq: 0.0,
             s1: 0.0,
             s2: 0.0,
@@ -74,8 +134,8 @@ impl Stats {
         whole: &Sums,
     ) -> Result<Stats, Error> {
         let mut st = Stats {
-            q: SecondaryMap::new(),
-            s: SecondaryMap::new(),
+            q: FaceValues::for_faces(m, true),
+            s: FaceValues::for_faces(m, true),
             sq: whole.sq,
             s1: whole.s1,
             s2: whole.s2,
@@ -129,8 +189,15 @@ pub(super) fn polish(m: &mut TriMesh<DVec2>, g: &Geometry) -> Result<usize, Erro
 /// below WORST_Q, worst first) and their neighbours, measured on the triangles there with the
 /// sums of the whole mesh. Returns the number of sweeps made.
 pub(super) fn polish_worst(m: &mut TriMesh<DVec2>, g: &Geometry) -> Result<usize, Error> {
-    let mut worst: Vec<(f64, FaceId)> =
-        m.face_ids().map(|f| (m.face_quality(f), f)).filter(|&(q, _)| q < WORST_Q).collect();
+    // Each face measured in parallel, the results taken in face order (the same sums and
+    // queue for any thread count).
+    let faces: Vec<FaceId> = m.face_ids().collect();
+    let mut worst: Vec<(f64, FaceId)> = faces
+        .par_iter()
+        .with_min_len(PAR_FACES)
+        .map(|&f| (m.face_quality(f), f))
+        .filter(|&(q, _)| q < WORST_Q)
+        .collect();
     // Stable: equal qualities keep the mesh's face order (deterministic).
     worst.sort_by(|x, y| x.0.total_cmp(&y.0));
     worst.truncate(WORST_QUEUE);
@@ -150,9 +217,16 @@ pub(super) fn polish_worst(m: &mut TriMesh<DVec2>, g: &Geometry) -> Result<usize
     }
     // The sums of the whole mesh in one pass, without per-triangle maps (memory).
     let mut whole = Sums { qmin: f64::INFINITY, ..Sums::default() };
-    for f in m.face_ids() {
-        let t = m.face_points(f);
-        let (q, r) = (crate::quality::triangle_q(t), rel_radius(t, g.h)?);
+    let terms: Vec<Result<(f64, f64), Error>> = faces
+        .par_iter()
+        .with_min_len(PAR_FACES)
+        .map(|&f| {
+            let t = m.face_points(f);
+            Ok((crate::quality::triangle_q(t), rel_radius(t, g.h)?))
+        })
+        .collect();
+    for term in terms {
+        let (q, r) = term?;
         whole.n += 1.0;
         whole.sq += q;
         whole.s1 += r;
@@ -193,7 +267,7 @@ pub(super) fn polish_nodes(
         return Ok(0);
     }
     let budget = if whole.is_some() { f64::INFINITY } else { st.dev_with(0.0, 0.0) };
-    let q_floor = whole.map_or_else(|| st.q.values().copied().fold(f64::INFINITY, f64::min), |w| w.qmin);
+    let q_floor = whole.map_or_else(|| st.q.min(), |w| w.qmin);
     let mut steps: SecondaryMap<VertexId, f64> = SecondaryMap::new();
     let walls = super::improve::walls(m, g);
     // Nodes whose last try failed or gained less than MOVE_GAIN, and whose neighbours have not
