@@ -5,6 +5,7 @@ use super::tri_ops::{FlipPlan, InsertPlan};
 use super::trimesh::{FaceId, HalfEdgeId, TriMesh, VertexId, VertexTag};
 use crate::predicates::{incircle, orient2d, Sign};
 use glam::DVec2;
+use rayon::prelude::*;
 
 /// Indices of `points` sorted along a Hilbert curve over their bounding box, so that
 /// consecutive points are near each other (short location walks, cache-friendly arenas).
@@ -18,15 +19,18 @@ pub fn hilbert_order(points: &[DVec2]) -> Vec<usize> {
     let span = (hi - lo).max_element().max(f64::MIN_POSITIVE);
     const ORDER: u32 = 16;
     let scale = ((1u64 << ORDER) - 1) as f64 / span;
+    // In parallel: the (key, index) pairs are distinct, so the order is the same for any
+    // thread count.
     let mut keyed: Vec<(u64, usize)> = points
-        .iter()
+        .par_iter()
         .enumerate()
+        .with_min_len(4096)
         .map(|(i, p)| {
             let q = (*p - lo) * scale;
             (hilbert_index(q.x as u32, q.y as u32, ORDER), i)
         })
         .collect();
-    keyed.sort_unstable();
+    keyed.par_sort_unstable();
     keyed.into_iter().map(|(_, i)| i).collect()
 }
 

@@ -128,7 +128,8 @@ pub(super) fn carve_arrays(ctx: &Ctx, cells: Cells, boundary_slack: f64) -> Resu
             let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
             t.rotate_left(k);
         }
-        tri.sort_unstable_by_key(|(t, _)| *t);
+        // Distinct triangles: the same order for any thread count.
+        tri.par_sort_unstable_by_key(|(t, _)| *t);
     }
     let (labels, tri): (Vec<u32>, Vec<[usize; 3]>) = tri.into_iter().map(|(t, l)| (l, t)).unzip();
     let (mut out, ids) =

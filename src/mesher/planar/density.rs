@@ -198,7 +198,9 @@ pub(super) fn density_control(
     }
     short.sort_by(|x, y| x.0.total_cmp(&y.0));
     // One collapse per neighbourhood and pass: the forces spread the change before the next.
-    let mut touched: SecondaryMap<VertexId, ()> = SecondaryMap::new();
+    // Hashed: a few vertices of what may be a large mesh (a slot-indexed map would be laid
+    // out up to the largest vertex index at every window).
+    let mut touched: slotmap::SparseSecondaryMap<VertexId, ()> = slotmap::SparseSecondaryMap::new();
     for (_, h) in short {
         if !m.contains_half_edge(h) || touched.contains_key(m.origin(h)) || touched.contains_key(m.dest(h)) {
             continue;
