@@ -38,7 +38,6 @@ pub(super) const MOVE_GAIN: f64 = 1e-5;
 /// A sweep that gains less than this in summed quality per node ends the polish.
 pub(super) const SWEEP_GAIN: f64 = 1e-7;
 
-/// Quality and relative circumradius of each triangle, and their sums.
 /// A value per face: indexed by the face's slot for a whole mesh or a small one; hashed for a
 /// few faces of a large mesh, where a slot-indexed map would be laid out (and its memory
 /// touched) up to the largest face index at every measure of the polish.
@@ -95,6 +94,7 @@ impl std::ops::IndexMut<FaceId> for FaceValues {
     }
 }
 
+/// Quality and relative circumradius of each triangle, and their sums.
 pub(super) struct Stats {
     pub(super) q: FaceValues,
     pub(super) s: FaceValues,
