@@ -106,13 +106,12 @@ impl Snapshot {
                 if j >= n_band || k < j {
                     hs.push(h);
                 }
-                // Each triangle once: from its first band corner.
+                // Each triangle once: from its first band corner (its corners are v, w and the
+                // third, u).
                 if let Some(f) = m.face_of(h) {
-                    let first = m
-                        .face_vertices(f)
-                        .iter()
-                        .all(|&u| index.get(u).is_none_or(|&i| i as usize >= n_band || i as usize >= k));
-                    if first {
+                    let later = |i: usize| i >= n_band || i >= k;
+                    let u = m.dest(m.next(h));
+                    if later(j) && index.get(u).is_none_or(|&i| later(i as usize)) {
                         faces.push(f);
                     }
                 }
