@@ -122,10 +122,10 @@ pub(super) fn density_control(
     m: &mut TriMesh<DVec2>,
     cands: Candidates,
     global_pass: bool,
+    mut loops: BoundaryLoops,
 ) -> Result<bool, Error> {
     let mut changed = false;
     let Candidates { mut long, mut short, mut bad } = cands;
-    let mut loops = BoundaryLoops::default();
     long.sort_by(|x, y| y.0.total_cmp(&x.0));
     for (_, h) in long {
         if !m.contains_half_edge(h) {

@@ -468,7 +468,8 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
             let cands = density_candidates(ctx, &snap, &p, rest.unit(), mu, band)?;
             if !cands.is_empty() {
                 write_back(m, &snap, &p);
-                topo_changed |= density_control(ctx, m, cands, !large)?;
+                let loops = snap.boundary_loops(m);
+                topo_changed |= density_control(ctx, m, cands, !large, loops)?;
             }
             if ctx.metric.is_none() {
                 // Every topology change so far wrote the positions back before it.
@@ -651,12 +652,12 @@ pub(super) fn equilibrium(ctx: &mut Ctx, m: &mut TriMesh<DVec2>) -> Result<(), E
     // figure 3-5 meshed from the Python package's sampled callable, whose curves are sealed
     // after this, the guard gave q min 0.638 where keeping the pass gives 0.682.
     if ctx.internal.is_some() {
-        density_control(ctx, m, cands, false)?;
+        density_control(ctx, m, cands, false, BoundaryLoops::default())?;
         ctx.report.ops.flips += ctx.make_delaunay(m);
     } else if !cands.is_empty() {
         let q_before = state_q_min(ctx, &snap, &p);
         let (kept, ops) = (m.clone(), ctx.report.ops);
-        density_control(ctx, m, cands, false)?;
+        density_control(ctx, m, cands, false, BoundaryLoops::default())?;
         ctx.report.ops.flips += ctx.make_delaunay(m);
         if mesh_q_min(ctx, m) < q_before {
             *m = kept;

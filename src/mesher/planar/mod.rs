@@ -402,7 +402,7 @@ pub(crate) fn run_moving(
             let snap = Snapshot::build(&mesh);
             let p: Vec<DVec2> = snap.ids.iter().map(|&v| mesh.pos(v)).collect();
             let cands = density_candidates(&ctx, &snap, &p, opts.h0, None, ADAPT_BAND)?;
-            if cands.is_empty() || !density_control(&mut ctx, &mut mesh, cands, true)? {
+            if cands.is_empty() || !density_control(&mut ctx, &mut mesh, cands, true, BoundaryLoops::default())? {
                 break;
             }
         }

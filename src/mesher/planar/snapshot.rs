@@ -608,6 +608,24 @@ impl Snapshot {
         reverted
     }
 
+    /// The boundary half-edges of `m` for [`BoundaryLoops`], from the boundary vertices of
+    /// these arrays and their neighbours instead of a scan of the whole arena: since the arrays
+    /// were built, a vertex joined the boundary only next to a boundary vertex, and an edge
+    /// closing over a vertex that left starts at a boundary vertex.
+    pub(super) fn boundary_loops(&self, m: &TriMesh<DVec2>) -> BoundaryLoops {
+        let mut seen = vec![false; self.ids.len()];
+        let mut nodes = Vec::new();
+        for &i in &self.loop_ids {
+            let ring = &self.adj[self.adj_start[i as usize] as usize..self.adj_start[i as usize + 1] as usize];
+            for &j in std::iter::once(&i).chain(ring) {
+                if !std::mem::replace(&mut seen[j as usize], true) {
+                    nodes.push(self.ids[j as usize]);
+                }
+            }
+        }
+        BoundaryLoops::of_nodes(m, nodes.into_iter())
+    }
+
     /// Whether the mesh of these arrays is in one piece (a walk over the edges; the arrays
     /// cover the whole mesh, not a band).
     pub(super) fn is_connected(&self) -> bool {
