@@ -174,6 +174,22 @@ fn shock_family(cases: &[(f64, f64, f64)]) {
     }
 }
 
+/// A metric stretched 1000:1 over the square: the start, refined evenly in every direction,
+/// would need some ten times the nodes the metric asks for. A typed error names the stretch
+/// and where (it was an internal error, and before that a run past 400 s).
+#[test]
+fn a_metric_stretched_beyond_the_start_is_a_named_error() {
+    use trussmesh::geometry::Rectangle;
+    let m = |_: DVec2| Metric2::from_sizes(DVec2::X, 0.001, 1.0);
+    let opts = Options2::uniform(0.1, [-1.0, -1.0], [1.0, 1.0]).with_metric(m);
+    let t = std::time::Instant::now();
+    let err = mesh_2d(&Rectangle::new([-1.0, -1.0], [1.0, 1.0]), &opts).expect_err("too stretched for the start");
+    let text = err.to_string();
+    println!("{text} ({:.2} s)", t.elapsed().as_secs_f64());
+    assert!(matches!(err, trussmesh::Error::BadSize(_)), "{err:?}");
+    assert!(text.contains("stretched 1000:1"), "{text}");
+}
+
 /// Constant anisotropic metrics on the square [-1, 1]^2, corners not fixed (issue 22): ratios
 /// 2:1 to 20:1, turned by a drawn angle, long sizes 0.1 to 0.8 (meshes of about 100 to 6,500
 /// triangles; the coarsest starts come out of the carving in several pieces, and the 10:1

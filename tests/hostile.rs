@@ -229,8 +229,14 @@ fn cases() -> Vec<Case> {
         v.push(case("random shapes", label, args));
     }
     // Metrics.
-    for (m, label) in [("1;0;1", "isotropic"), ("100;0;1", "10:1"), ("-1;0;1", "not positive"), ("1;2;1", "indefinite")]
-    {
+    for (m, label) in [
+        ("1;0;1", "isotropic"),
+        ("100;0;1", "10:1"),
+        ("1e4;0;1", "100:1"),
+        ("1e6;0;1", "1000:1"),
+        ("-1;0;1", "not positive"),
+        ("1;2;1", "indefinite"),
+    ] {
         v.push(case(
             "metric",
             label,

@@ -72,13 +72,21 @@ pub(super) fn initial_mesh(ctx: &mut Ctx, estimate: f64) -> Result<TriMesh<DVec2
                 }
             }
         }
+        // Splits the engine refuses (a midpoint that would flatten or turn over a needle)
+        // would be asked for again at every round, for ever.
+        if new.is_empty() {
+            break;
+        }
         // Only edges of triangles a split changed can have stopped being Delaunay.
         let stack = star_edges(&m, &new);
         ctx.legalize(&mut m, stack);
         if m.num_vertices() > cap {
-            return Err(Error::internal(format!(
-                "initial refinement passed {cap} vertices (estimate {estimate:.0} triangles)"
-            )));
+            return Err(match ctx.metric {
+                Some(_) => too_stretched(ctx, &m, cap, estimate)?,
+                None => Error::internal(format!(
+                    "initial refinement passed {cap} vertices (estimate {estimate:.0} triangles)"
+                )),
+            });
         }
     }
     // Fixed points go in after the refinement, exactly where given: inserted first, they would
@@ -238,6 +246,32 @@ pub(super) fn fill_to_estimate(ctx: &mut Ctx, m: &mut TriMesh<DVec2>, estimate: 
         ctx.legalize(m, stack);
     }
     Ok(splits)
+}
+
+/// The error for a metric whose start refinement ran past `cap` vertices: the rounds halve
+/// every edge longer than its metric length, across the stretch as along it, so the start
+/// grows with the stretch (about 550:1 over a square asked for ten times the nodes its
+/// metric does). Names the largest stretch met among the start's vertices and where.
+fn too_stretched(ctx: &Ctx, m: &TriMesh<DVec2>, cap: usize, estimate: f64) -> Result<Error, Error> {
+    let mut worst = (1.0f64, DVec2::ZERO);
+    for v in m.vertex_ids() {
+        let p = m.pos(v);
+        if ctx.approx_dist(p)? > 0.0 {
+            continue;
+        }
+        let mp = ctx.metric_at(p)?;
+        let stretch = mp.largest_size() / mp.smallest_size();
+        if stretch > worst.0 {
+            worst = (stretch, p);
+        }
+    }
+    let (r, p) = worst;
+    Ok(Error::BadSize(format!(
+        "the metric is stretched {r:.0}:1 at ({:.4}, {:.4}), more than the start can follow: it refines evenly in \
+         every direction and passed {cap} vertices where the metric asks for about {estimate:.0} triangles; lower the \
+         stretch",
+        p.x, p.y
+    )))
 }
 
 /// Uniform sizes, no fixed points, a large start: the rounds of red refinement of
