@@ -127,14 +127,19 @@ pub(super) fn uncovered(ctx: &Ctx, mesh: &TriMesh<DVec2>) -> Result<Uncovered, E
         if local > BY_SIZE * opts.h0 {
             by_size.push((p.to_array(), local));
         }
-        let (what, advice) = if local > BY_SIZE * opts.h0 {
-            (format!("the local element size {local:.3}"), "lower the size there (--size) or h0 to mesh it")
+        // With a metric, h0 only sets tolerances: the part was left out by the start, whose
+        // cells are as long as the metric's long size.
+        let why = if ctx.metric.is_some() {
+            "the start, stretched as the metric asks, left it out (its cells there are about as long as the \
+             domain is wide); smaller sizes in the metric there mesh it"
+                .to_string()
+        } else if local > BY_SIZE * opts.h0 {
+            format!("it is below the local element size {local:.3} and was dropped; lower the size there (--size) or h0 to mesh it")
         } else {
-            (format!("the resolution h0 = {}", opts.h0), "lower h0 to mesh it")
+            format!("it is below the resolution h0 = {} and was dropped; lower h0 to mesh it", opts.h0)
         };
         notes.push(format!(
-            "a part of the domain at ({}, {}) ({count} sample{} at spacing {:.3}) is not meshed: it is \
-             below {what} and was dropped; {advice}",
+            "a part of the domain at ({}, {}) ({count} sample{} at spacing {:.3}) is not meshed: {why}",
             p.x,
             p.y,
             if count == 1 { "" } else { "s" },
