@@ -486,12 +486,15 @@ pub(super) fn restore_fixed(ctx: &Ctx, m: &mut TriMesh<DVec2>) -> Result<(), Err
                     .collect();
                 near.sort_by(|a, b| a.0.total_cmp(&b.0));
                 let mut placed = None;
+                // A start in pieces: the moved vertex's boundary edges must clear the other
+                // pieces too (the relocation tests its own loop only).
+                let walls = crate::topology::boundary_edges_if_split(m);
                 for &(_, v) in near.iter().take(RESTORE_TRIES) {
                     let old = m.pos(v);
                     if !path_inside(ctx, old, p)? || m.relocate(v, p).is_err() {
                         continue;
                     }
-                    if star_inside(ctx, m, v)? {
+                    if crate::topology::boundary_clear(m, v, &walls) && star_inside(ctx, m, v)? {
                         placed = Some(v);
                         break;
                     }
@@ -533,6 +536,7 @@ pub(super) fn corners_left_free(ctx: &Ctx, m: &TriMesh<DVec2>) -> Vec<DVec2> {
 /// edge whose two new triangles are positive and whose added triangle holds no vertex.
 fn split_toward(ctx: &Ctx, m: &mut TriMesh<DVec2>, p: DVec2) -> Result<Option<VertexId>, Error> {
     use crate::predicates::{orient2d, Sign};
+    use crate::topology::segments_meet;
     let seg_dist = |a: DVec2, b: DVec2| {
         let t = ((p - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
         (a + (b - a) * t).distance(p)
@@ -557,7 +561,15 @@ fn split_toward(ctx: &Ctx, m: &mut TriMesh<DVec2>, p: DVec2) -> Result<Option<Ve
                 && orient2d(a, p, q) != Sign::Negative
                 && orient2d(p, b, q) != Sign::Negative
         });
-        if !holds && path_inside(ctx, a, p)? && path_inside(ctx, p, b)? {
+        // The new boundary edges a-p and p-b must cross no boundary edge either (one can pass
+        // through the new triangle with both ends outside it).
+        let (ha, hb) = (m.origin(h), m.dest(h));
+        let crosses = m.half_edge_ids().filter(|&e| m.face_of(e).is_some() && m.is_boundary_edge(e)).any(|e| {
+            let (u, w) = (m.origin(e), m.dest(e));
+            let (pu, pw) = (m.pos(u), m.pos(w));
+            (u != ha && w != ha && segments_meet(a, p, pu, pw)) || (u != hb && w != hb && segments_meet(p, b, pu, pw))
+        });
+        if !holds && !crosses && path_inside(ctx, a, p)? && path_inside(ctx, p, b)? {
             if let Ok(v) = m.split_edge(h, p) {
                 return Ok(Some(v));
             }
