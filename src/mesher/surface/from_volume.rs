@@ -19,6 +19,12 @@ use std::collections::HashMap;
 /// failed, the 3-D mesh's boundary is taken when no angle of it is below this.
 pub(super) const TRY_BELOW_DEG: f64 = 20.0;
 
+/// Whether the 3-D mesh's boundary `out` is a fair result where the surface mesher failed: no
+/// angle below [`TRY_BELOW_DEG`] and no face against grad phi.
+pub(super) fn fair(out: &SurfaceOutput) -> bool {
+    out.report.quality.min_angle >= TRY_BELOW_DEG && out.report.quality.inward_faces == 0
+}
+
 /// The boundary of the tets of the inside of phi = 0 at the surface's sizes, oriented with its
 /// normals along grad phi, checked closed, manifold and free of self-intersection, with the
 /// quality measured as for any surface; `note` goes into the report.

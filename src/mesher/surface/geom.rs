@@ -146,13 +146,13 @@ const THICKNESS_SAMPLES: [f64; 14] = [0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 
 /// at 0.25 to 32 times `h` up to `reach`, and the first sample on the other side
 /// (beyond `tol` in distance, as far as |grad phi| tells) brackets the crossing, found by
 /// bisection; the smallest such distance is returned. A shell thinner than a level's edges, or
-/// two sheets closer than that, let a node's projection land on the wrong sheet. With `facing`,
-/// only sheets that face each other count (the normal where the ray crosses within
-/// `sharp::SHARP_DEG` of the opposite of the normal it left along): across the wedge of a
-/// sharp edge the ray meets the other face at a slant, and that face is no thin sheet. `None`
-/// when no sample changes side.
-pub fn thinnest(phi: &dyn Implicit3, on: &[DVec3], h: f64, reach: f64, tol: f64, facing: bool) -> Option<Thinnest> {
-    let cos_facing = crate::mesher::sharp::SHARP_DEG.to_radians().cos();
+/// two sheets closer than that, let a node's projection land on the wrong sheet. Only sheets
+/// that face each other within `facing_deg` count (the normal where the ray crosses within that
+/// angle of the opposite of the normal it left along; 180 counts every crossing): across the
+/// wedge of a sharp edge the ray meets the other face at a slant. `None` when no sample
+/// changes side.
+pub fn thinnest(phi: &dyn Implicit3, on: &[DVec3], h: f64, reach: f64, tol: f64, facing_deg: f64) -> Option<Thinnest> {
+    let cos_facing = facing_deg.to_radians().cos();
     use rayon::prelude::*;
     on.par_iter()
         .filter_map(|&p| {
@@ -162,7 +162,7 @@ pub fn thinnest(phi: &dyn Implicit3, on: &[DVec3], h: f64, reach: f64, tol: f64,
             if n == DVec3::ZERO || !slack.is_finite() {
                 return None;
             }
-            let mut best: Option<f64> = None;
+            let mut best: Option<(f64, f64)> = None;
             for side in [-1.0, 1.0] {
                 let mut before = 0.0;
                 for &s in &THICKNESS_SAMPLES {
@@ -188,16 +188,16 @@ pub fn thinnest(phi: &dyn Implicit3, on: &[DVec3], h: f64, reach: f64, tol: f64,
                                 lo = mid;
                             }
                         }
-                        let faces = !facing || phi.gradient(p + side * hi * n).normalize_or_zero().dot(n) < -cos_facing;
-                        if faces && best.is_none_or(|b| hi < b) {
-                            best = Some(hi);
+                        let back = -phi.gradient(p + side * hi * n).normalize_or_zero().dot(n);
+                        if (facing_deg >= 180.0 || back > cos_facing) && best.is_none_or(|b| hi < b.0) {
+                            best = Some((hi, back.clamp(-1.0, 1.0).acos().to_degrees()));
                         }
                         break;
                     }
                     before = t;
                 }
             }
-            best.map(|across| Thinnest { across, at: p })
+            best.map(|(across, angle)| Thinnest { across, at: p, angle })
         })
         .min_by(|x, y| {
             let key = |t: &Thinnest| (t.across, t.at.x, t.at.y, t.at.z);
@@ -211,6 +211,9 @@ pub fn thinnest(phi: &dyn Implicit3, on: &[DVec3], h: f64, reach: f64, tol: f64,
 pub struct Thinnest {
     pub across: f64,
     pub at: DVec3,
+    /// The angle in degrees between the two sheets there (0 for parallel sheets facing each
+    /// other, the wedge's opening angle at a sharp edge).
+    pub angle: f64,
 }
 
 /// Bisections of the interval where [`thinnest`] saw phi change side (to 1e-6 of it).

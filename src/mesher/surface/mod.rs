@@ -98,13 +98,20 @@ fn held_runaway(start: usize, now: usize) -> Error {
     ))
 }
 
+/// Sheets within this many degrees of facing each other are a shell or a gap; at a larger
+/// angle (up to `sharp::SHARP_DEG`) they are the two faces of a sharp wedge.
+const PARALLEL_DEG: f64 = 20.0;
+
 /// Sheets facing each other closer than two edges: the input asks for a size it cannot be
-/// meshed at, and the error says so with the thickness and where; `otherwise` when no such
-/// place is found near the nodes of `m` (the two faces of a sharp wedge are no thin sheet).
+/// meshed at, and the error says so with the thickness and where; failing that, the two faces
+/// of a wedge sharper than `sharp::SHARP_DEG` closer than two edges, named with its angle (a
+/// wedge thins to nothing at its edge, so the thickness there is no size to mesh at);
+/// `otherwise` when neither is found near the nodes of `m`.
 fn too_thin_or(phi: &dyn Implicit3, m: &TriMesh<DVec3>, hmin: f64, tol: f64, otherwise: Error) -> Error {
     let on: Vec<DVec3> = m.vertex_ids().map(|v| m.pos(v)).collect();
-    match geom::thinnest(phi, &on, hmin, start::COARSE_ACROSS * hmin, tol, true) {
-        Some(t) => Error::BadSize(format!(
+    let reach = start::COARSE_ACROSS * hmin;
+    if let Some(t) = geom::thinnest(phi, &on, hmin, reach, tol, PARALLEL_DEG) {
+        return Error::BadSize(format!(
             "phi = 0 comes back within {:.3e} of itself near ({:.4}, {:.4}, {:.4}): a shell or gap thinner than \
              two edges of the size {hmin:.3e}, across which nodes land on the wrong sheet; \
              mesh with h0 at most {:.3e}",
@@ -113,6 +120,15 @@ fn too_thin_or(phi: &dyn Implicit3, m: &TriMesh<DVec3>, hmin: f64, tol: f64, oth
             t.at.y,
             t.at.z,
             0.5 * t.across
+        ));
+    }
+    match geom::thinnest(phi, &on, hmin, reach, tol, crate::mesher::sharp::SHARP_DEG) {
+        Some(t) => Error::BadSize(format!(
+            "phi = 0 meets itself at a wedge of about {:.0} degrees near ({:.4}, {:.4}, {:.4}) (its faces {:.3e} \
+             apart there): a wedge this sharp thins below two edges of the size {hmin:.3e} near its edge, where \
+             nodes land on the wrong face; blunt or round the wedge, or mesh the solid with `mesh --dim 3`, \
+             which holds it",
+            t.angle, t.at.x, t.at.y, t.at.z, t.across
         )),
         None => otherwise,
     }
@@ -205,7 +221,11 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
         // No features to hold (none, or turned off): none are looked for in the function.
         return smooth_run(phi, opts, size, None);
     }
-    let held = match mesh_surface_held(phi, opts, size, true, Start::Marched { top: start::MAX_LEVELS }, None)? {
+    let first = match mesh_surface_held(phi, opts, size, true, Start::Marched { top: start::MAX_LEVELS }, None) {
+        Err(e @ Error::BadSize(_)) => return fair_volume_or(phi, opts, size, e),
+        first => first?,
+    };
+    let held = match first {
         Ok(out) => Ok(out),
         Err(e) => {
             trace(&e);
@@ -213,9 +233,11 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
             // triangles cut more cleanly than the marching start's (as for given features).
             let smooth = match smooth_run(phi, opts, size, None) {
                 Ok(smooth) => smooth,
-                // A part too thin is the input's to change; a smooth surface that failed its
-                // check is the mesher's, and the 3-D mesh's boundary may still be a surface.
-                Err(e2 @ Error::BadSize(_)) => return Err(e2),
+                // A part too thin is the input's to change, unless the 3-D mesh's boundary,
+                // which holds the sharp edges, makes a fair surface of it: the two faces of a
+                // wedge sharper than the facing test's angle (a ball less a box whose faces cut
+                // it at 37 to 40 degrees) look like a sheet thinning to nothing at the edge.
+                Err(e2 @ Error::BadSize(_)) => return fair_volume_or(phi, opts, size, e2),
                 Err(e2) => {
                     trace(&e2);
                     let note =
@@ -258,6 +280,29 @@ fn mesh_surface_sized(phi: &dyn Implicit3, opts: &SurfaceOptions, size: &SizeFie
         Ok(out) => out,
         Err((smooth, e)) => volume_or_rounded(phi, opts, size, smooth, &e),
     })
+}
+
+/// A surface the mesher refused as too thin (`e`, a bad size): the boundary of the 3-D mesh of
+/// the inside, which holds sharp edges, when it is fair ([`from_volume::fair`]), else `e`. The
+/// two faces of a wedge sharper than the facing test's angle (a ball less a box whose faces cut
+/// it at 37 to 41 degrees) look like a sheet thinning to nothing at the edge, and the 3-D
+/// mesher holds such wedges.
+fn fair_volume_or(
+    phi: &dyn Implicit3,
+    opts: &SurfaceOptions,
+    size: &SizeField,
+    e: Error,
+) -> Result<SurfaceOutput, Error> {
+    trace_held(&e);
+    let note = format!("the surface mesher failed ({e}): this is the boundary of the 3-D mesh of the inside");
+    match from_volume::from_volume(phi, opts, size, note) {
+        Ok(out) if from_volume::fair(&out) => Ok(out),
+        Ok(_) => Err(e),
+        Err(e2) => {
+            trace_held(&e2);
+            Err(e)
+        }
+    }
 }
 
 /// Runs holding the given features from the starts after the smooth mesh, in turn, until one
@@ -371,10 +416,7 @@ fn volume_or_rounded(
         "the surface has sharp edges, holding them failed ({e}): this is the boundary of the 3-D mesh of the inside, which holds them"
     );
     match from_volume::from_volume(phi, opts, size, note) {
-        Ok(mut other)
-            if other.report.quality.min_angle >= from_volume::TRY_BELOW_DEG
-                && other.report.quality.inward_faces == 0 =>
-        {
+        Ok(mut other) if from_volume::fair(&other) => {
             other.report.seconds += smooth.report.seconds;
             other
         }

@@ -299,7 +299,7 @@ pub(super) fn start_mesh(
     // And keep COARSE_ACROSS edges across every sheet and every gap between sheets: a shell
     // 3 h thick, started at 2 h, had nodes projected onto the other sheet (a self-intersection).
     let coarsest = hmin * (1u32 << MAX_LEVELS) as f64;
-    let thin = geom::thinnest(phi, &on, hmin, COARSE_ACROSS * coarsest, tol, false).map_or(f64::INFINITY, |t| t.across);
+    let thin = geom::thinnest(phi, &on, hmin, COARSE_ACROSS * coarsest, tol, 180.0).map_or(f64::INFINITY, |t| t.across);
     let mut levels = reference;
     let mut marched = fine;
     for k in (reference + 1..=MAX_LEVELS.min(top)).rev() {
