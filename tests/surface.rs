@@ -463,10 +463,10 @@ fn ball_less_slab(c: f64) -> impl Fn(DVec3) -> f64 + Sync {
 }
 
 /// Caps with rims of 41 and 46 degrees, at least 1.5 sizes thick: the surface mesher fails on
-/// them (nodes land on the rim's other face). From the command line (box -1..1) c = 0.30 at
-/// h0 0.067 and 0.05 were refused as a "shell or gap" 2.6e-2 thin near the rim, with h0 1.3e-2
-/// advised; the boundary of the 3-D mesh of the inside, which holds the rims, is the result
-/// now, its report saying so: two closed surfaces, every face outward, no angle below 20
+/// them (nodes land on the rim's other face). c = 0.30 was refused at h0 0.025, 0.05 and 0.067
+/// as a "shell or gap" 6.8e-3 to 3.8e-2 thin near the rim, with an h0 of half that advised
+/// (which failed again); the boundary of the 3-D mesh of the inside, which holds the rims, is
+/// the result now, its report saying so: two closed surfaces, every face outward, no angle below 20
 /// degrees. A cap about one size thick (c = 0.33, 0.07 at its middle, h0 0.067) may still be
 /// refused, but with the thickness where its faces face each other (0.04 to 0.07), not the
 /// rim's (it was 1.2e-2).

@@ -637,6 +637,12 @@ fn mesh_surface_held(
     }
     // The promise of a level-set surface: closed, oriented, manifold, not self-intersecting.
     if let Err(e) = m.validate_closed_surface() {
+        if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+            if let Some(f) = m.face_ids().find(|f| format!("{:?}", slotmap::Key::data(f)) == e.at) {
+                let corners = m.face_vertices(f).map(|v| (m.pos(v), m.tag(v)));
+                eprintln!("the finished surface fails at face {}: {corners:?}", e.at);
+            }
+        }
         let e = Error::broken("the finished surface is invalid", e);
         if held {
             return Ok(Err(e));
