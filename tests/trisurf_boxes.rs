@@ -36,27 +36,12 @@ fn row(k: usize, surf: &TriSurface, h0: f64) -> (bool, f64) {
 
 const HEADER: &str = "| box | h0 | triangles | min angle | mean q | size dev | feature gap / h0 | corners | features |\n|---|---|---|---|---|---|---|---|---|";
 
-/// Eight boxes at four sizes: no failure, no silent loss of features, and the features held in
-/// at least 30 of the 32 runs.
+/// Eight boxes at four sizes: no failure, no silent loss of features, and the angle
+/// target on the whole wide family: features held and min angle 30 degrees or more in every
+/// run. Reached since held runs flip after their last projection (box 0 at h0 0.08 had 28.0
+/// degrees: a triangle with its three corners on a rim, flattened when they were put onto it;
+/// 30.4 now).
 #[test]
-fn turned_boxes_hold_their_features_or_say_so() {
-    println!("{HEADER}");
-    let mut rng = Rng::new(BOX_SEED);
-    let boxes: Vec<TriSurface> = (0..8).map(|_| random_turned_box(&mut rng)).collect();
-    let mut held = 0;
-    for &h0 in &SIZES {
-        for (k, surf) in boxes.iter().enumerate() {
-            held += row(k, surf, h0).0 as usize;
-        }
-    }
-    println!("features held in {held} of {}", boxes.len() * SIZES.len());
-    assert!(held >= 30, "features held in {held} runs");
-}
-
-/// The angle target on the whole wide family: features held and min angle 30 degrees
-/// or more in every run.
-#[test]
-#[ignore = "not reached: box 0 at h0 0.08 reaches 28.0 degrees (every run holds its features; before the rims were held as smooth curves it was box 6 at 29.3)"]
 fn turned_boxes_reach_30_degrees_with_features_held() {
     println!("{HEADER}");
     let mut rng = Rng::new(BOX_SEED);

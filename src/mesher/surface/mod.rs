@@ -61,7 +61,7 @@ pub mod ops {
 use crate::geometry::Implicit3;
 use crate::mesher::report::{OpCounts, Report, SurfaceStages};
 use crate::mesher::StopReason;
-use crate::topology::{TriMesh, VertexId, VertexTag};
+use crate::topology::{FaceId, TriMesh, VertexId, VertexTag};
 use crate::Error;
 use geom::project;
 use glam::DVec3;
@@ -635,6 +635,11 @@ fn mesh_surface_held(
             m.set_pos_unchecked(v, p);
         }
     }
+    // A curve vertex the last step put onto its curve can leave a triangle with all three
+    // corners on the curve flat (the arc's sagitta across a chord): flips mend it.
+    if held {
+        counts.flips += flip_pass(&mut m, phi, FlipGoal::Quality, 10);
+    }
     // The promise of a level-set surface: closed, oriented, manifold, not self-intersecting.
     if let Err(e) = m.validate_closed_surface() {
         if std::env::var_os("TRUSSMESH_TRACE").is_some() {
@@ -661,6 +666,13 @@ fn mesh_surface_held(
         report.feature_points = m.vertex_ids().filter(|&v| m.tag(v) != VertexTag::Interior).count();
     }
     if held && report.quality.min_q < HELD_MIN_Q {
+        if std::env::var_os("TRUSSMESH_TRACE").is_some() {
+            let q = |f: FaceId| crate::quality::triangle_q3(m.face_vertices(f).map(|v| m.pos(v)));
+            if let Some(f) = m.face_ids().min_by(|&a, &b| q(a).total_cmp(&q(b))) {
+                let corners = m.face_vertices(f).map(|v| (m.pos(v), m.tag(v)));
+                eprintln!("the held surface's worst triangle, q {:.3}: {corners:?}", q(f));
+            }
+        }
         return Ok(Err(Error::internal(format!(
             "holding sharp features left a triangle of quality {:.3}",
             report.quality.min_q
