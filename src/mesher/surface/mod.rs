@@ -146,7 +146,9 @@ const PROJECT_TOL: f64 = 1e-9;
 /// from there (a smooth run that fails its check goes to the 3-D mesh's boundary at once);
 /// failing that too, the boundary of the 3-D mesh of the inside when it is fair
 /// (`from_volume.rs`, also tried for a held surface with a triangle below 20 degrees), else
-/// the smooth mesh is the result, its report saying so. A
+/// the smooth mesh is the result, its report saying so. A run refused as too thin (a shell, a
+/// gap or a sharp wedge, see `too_thin_or`) takes the 3-D mesh's boundary when it is fair, and
+/// is refused otherwise. A
 /// geometry that gives its features exactly ([`Implicit3::creases`]: a triangulated surface)
 /// is meshed smooth first and its features cut into that mesh; should that fail, they are cut
 /// into the marching start, and failing that too the geometry's own triangulation is the start
