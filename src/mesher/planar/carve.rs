@@ -564,7 +564,7 @@ fn split_toward(ctx: &Ctx, m: &mut TriMesh<DVec2>, p: DVec2) -> Result<Option<Ve
         // The new boundary edges a-p and p-b must cross no boundary edge either (one can pass
         // through the new triangle with both ends outside it).
         let (ha, hb) = (m.origin(h), m.dest(h));
-        let crosses = m.half_edge_ids().filter(|&e| m.face_of(e).is_some() && m.is_boundary_edge(e)).any(|e| {
+        let crosses = edges.iter().any(|&(_, e)| {
             let (u, w) = (m.origin(e), m.dest(e));
             let (pu, pw) = (m.pos(u), m.pos(w));
             (u != ha && w != ha && segments_meet(a, p, pu, pw)) || (u != hb && w != hb && segments_meet(p, b, pu, pw))
